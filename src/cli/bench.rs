@@ -1,0 +1,25 @@
+//! `wildlight bench`: benchmarks of the performance-critical parts.
+//! Each benchmark is its own subcommand in its own module.
+
+/// Options of `wildlight bench`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    #[command(subcommand)]
+    which: Which,
+}
+
+#[derive(clap::Subcommand, Debug)]
+enum Which {
+    /// Hash-grid SDF field: forward and forward+backward throughput.
+    Fields(bench_fields::Args),
+}
+
+/// Runs the chosen benchmark.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    match args.which {
+        Which::Fields(a) => bench_fields::run(a),
+    }
+}
+
+#[path = "bench_fields.rs"]
+mod bench_fields;

@@ -1,0 +1,11 @@
+//! One module per subcommand. Each has `Args` (clap) and `run(Args)`.
+
+pub mod bench;
+pub mod brdf;
+pub mod demo;
+pub mod eval;
+pub mod export;
+pub mod info;
+pub mod render;
+pub mod synth;
+pub mod train;
