@@ -1,1 +1,22 @@
-//! (work in progress)
+//! Triangle meshes for wildlight: the [`TriMesh`] type, PLY and OBJ reading
+//! and writing, and the geometric operations the other crates need (areas,
+//! face normals, bounding boxes, transforms, welding of marching-cubes
+//! soups, removal of small disconnected components).
+//!
+//! ```no_run
+//! use wildlight_mesh::TriMesh;
+//! let mesh = TriMesh::read("gt/mesh_world.ply").unwrap();
+//! println!("{} triangles, area {}", mesh.triangles.len(), mesh.total_area());
+//! mesh.write("copy.obj").unwrap();
+//! ```
+
+mod atomic;
+mod components;
+mod error;
+pub mod obj;
+pub mod ply;
+mod trimesh;
+mod weld;
+
+pub use error::MeshError;
+pub use trimesh::{Aabb, TriMesh};
