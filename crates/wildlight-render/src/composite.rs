@@ -1,0 +1,183 @@
+//! Compositing per-sample attributes with the NeuS weights (SPEC §2:
+//! C = Σ_k w_k c_k), forward and backward, plus the per-ray maps the trainer
+//! and `wildlight render` need (accumulated weight, depth, normal).
+//!
+//! Backward convention: ∂L/∂(per-ray output) in, ∂L/∂w_k and ∂L/∂(per-sample
+//! attribute) ADDED into the caller's buffers, so several composited
+//! attributes (colour, flash-only, normals, …) accumulate into one ∂L/∂w that
+//! [`crate::neus::NeusWeights::backward`] then consumes.
+
+use rayon::prelude::*;
+
+use crate::packing::{ray_chunks, ray_count, sample_count, split_mut};
+use crate::real::{Scalar, dot3};
+
+/// Per-ray Σ_k w_k a_k of a `C`-channel per-sample attribute.
+///
+/// # Panics
+/// If lengths disagree with `offsets`.
+pub fn composite<T: Scalar, const C: usize>(
+    offsets: &[u32],
+    weight: &[T],
+    attr: &[[T; C]],
+    out: &mut [[T; C]],
+) {
+    let n = sample_count(offsets);
+    assert_eq!(weight.len(), n, "composite: weight length");
+    assert_eq!(attr.len(), n, "composite: attribute length");
+    assert_eq!(out.len(), ray_count(offsets), "composite: output length");
+    let chunks = ray_chunks(offsets);
+    let outs = split_mut(out, chunks.iter().map(|c| c.rays.clone()));
+    chunks.par_iter().zip(outs).for_each(|(chunk, out)| {
+        for (o, ray) in out.iter_mut().zip(chunk.rays.clone()) {
+            let mut acc = [T::of(0.0); C];
+            for k in offsets[ray] as usize..offsets[ray + 1] as usize {
+                let w = weight[k];
+                for (a, &x) in acc.iter_mut().zip(&attr[k]) {
+                    *a += w * x;
+                }
+            }
+            *o = acc;
+        }
+    });
+}
+
+/// Backward of [`composite`]: given ∂L/∂out per ray, ADDS
+/// ∂L/∂w_k = ∂L/∂out·a_k into `d_weight` and ∂L/∂a_k = w_k ∂L/∂out into
+/// `d_attr` (pass `None` when the attribute needs no gradient).
+///
+/// # Panics
+/// If lengths disagree with `offsets`.
+pub fn composite_backward<T: Scalar, const C: usize>(
+    offsets: &[u32],
+    weight: &[T],
+    attr: &[[T; C]],
+    d_out: &[[T; C]],
+    d_weight: &mut [T],
+    d_attr: Option<&mut [[T; C]]>,
+) {
+    let n = sample_count(offsets);
+    assert_eq!(weight.len(), n, "composite_backward: weight length");
+    assert_eq!(attr.len(), n, "composite_backward: attribute length");
+    assert_eq!(d_weight.len(), n, "composite_backward: d_weight length");
+    assert_eq!(
+        d_out.len(),
+        ray_count(offsets),
+        "composite_backward: d_out length"
+    );
+    let chunks = ray_chunks(offsets);
+    let dws = split_mut(d_weight, chunks.iter().map(|c| c.samples.clone()));
+    match d_attr {
+        Some(d_attr) => {
+            assert_eq!(d_attr.len(), n, "composite_backward: d_attr length");
+            let das = split_mut(d_attr, chunks.iter().map(|c| c.samples.clone()));
+            chunks
+                .par_iter()
+                .zip(dws)
+                .zip(das)
+                .for_each(|((chunk, dw), da)| {
+                    let base = chunk.samples.start;
+                    for ray in chunk.rays.clone() {
+                        let g = d_out[ray];
+                        for k in offsets[ray] as usize..offsets[ray + 1] as usize {
+                            let l = k - base;
+                            let mut s = T::of(0.0);
+                            for c in 0..C {
+                                s += g[c] * attr[k][c];
+                                da[l][c] += weight[k] * g[c];
+                            }
+                            dw[l] += s;
+                        }
+                    }
+                });
+        }
+        None => {
+            chunks.par_iter().zip(dws).for_each(|(chunk, dw)| {
+                let base = chunk.samples.start;
+                for ray in chunk.rays.clone() {
+                    let g = d_out[ray];
+                    for k in offsets[ray] as usize..offsets[ray + 1] as usize {
+                        let mut s = T::of(0.0);
+                        for c in 0..C {
+                            s += g[c] * attr[k][c];
+                        }
+                        dw[k - base] += s;
+                    }
+                }
+            });
+        }
+    }
+}
+
+/// ADDS a per-ray ∂L/∂(Σ w) (e.g. from the mask loss, or −∂L/∂C·b for a
+/// background colour b composited with weight 1 − Σ w) into ∂L/∂w_k.
+pub fn acc_weight_backward<T: Scalar>(offsets: &[u32], d_acc: &[T], d_weight: &mut [T]) {
+    assert_eq!(d_acc.len(), ray_count(offsets));
+    assert_eq!(d_weight.len(), sample_count(offsets));
+    for (ray, &g) in d_acc.iter().enumerate() {
+        for dw in &mut d_weight[offsets[ray] as usize..offsets[ray + 1] as usize] {
+            *dw += g;
+        }
+    }
+}
+
+/// Per-ray maps for evaluation and previews.
+#[derive(Clone, Debug, Default)]
+pub struct RayMaps {
+    /// Σ_k w_k (the rendered mask).
+    pub acc_weight: Vec<f32>,
+    /// Σ_k w_k t_k / Σ_k w_k: expected distance along the ray (0 where Σ w = 0).
+    pub depth: Vec<f32>,
+    /// Σ_k w_k n_k with n_k = ∇φ_k/|∇φ_k|, renormalised to unit length (0 where Σ w = 0).
+    pub normal: Vec<[f32; 3]>,
+}
+
+/// Composites depth, normal and accumulated weight per ray.
+///
+/// `t` are the sample distances along the rays, `sdf_grad` the raw SDF
+/// gradients (normalised per sample here).
+pub fn ray_maps(offsets: &[u32], weight: &[f32], t: &[f32], sdf_grad: &[[f32; 3]]) -> RayMaps {
+    let n_rays = ray_count(offsets);
+    let n = sample_count(offsets);
+    assert_eq!(weight.len(), n);
+    assert_eq!(t.len(), n);
+    assert_eq!(sdf_grad.len(), n);
+    let mut maps = RayMaps {
+        acc_weight: vec![0.0; n_rays],
+        depth: vec![0.0; n_rays],
+        normal: vec![[0.0; 3]; n_rays],
+    };
+    let chunks = ray_chunks(offsets);
+    let accs = split_mut(&mut maps.acc_weight, chunks.iter().map(|c| c.rays.clone()));
+    let depths = split_mut(&mut maps.depth, chunks.iter().map(|c| c.rays.clone()));
+    let normals = split_mut(&mut maps.normal, chunks.iter().map(|c| c.rays.clone()));
+    chunks
+        .par_iter()
+        .zip(accs)
+        .zip(depths)
+        .zip(normals)
+        .for_each(|(((chunk, acc), depth), normal)| {
+            for (i, ray) in chunk.rays.clone().enumerate() {
+                let (mut w_sum, mut d_sum, mut n_sum) = (0.0f32, 0.0f32, [0.0f32; 3]);
+                for k in offsets[ray] as usize..offsets[ray + 1] as usize {
+                    let w = weight[k];
+                    w_sum += w;
+                    d_sum += w * t[k];
+                    let g = sdf_grad[k];
+                    let len = dot3(g, g).sqrt().max(1e-12);
+                    for (ns, gc) in n_sum.iter_mut().zip(g) {
+                        *ns += w * gc / len;
+                    }
+                }
+                acc[i] = w_sum;
+                if w_sum > 0.0 {
+                    depth[i] = d_sum / w_sum;
+                    let len = dot3(n_sum, n_sum).sqrt();
+                    if len > 0.0 {
+                        normal[i] = n_sum.map(|x| x / len);
+                    }
+                }
+            }
+        });
+    maps
+}

@@ -1,0 +1,113 @@
+//! Analytic fields and cameras shared by the integration tests.
+#![allow(dead_code)]
+
+/// A torus around the y axis (major radius `major`, tube radius `minor`),
+/// tilted by rotating the query point about the x axis by `tilt`.
+#[derive(Clone, Copy, Debug)]
+pub struct Torus {
+    pub major: f64,
+    pub minor: f64,
+    pub tilt: f64,
+}
+
+impl Torus {
+    pub fn standard() -> Self {
+        Self {
+            major: 0.5,
+            minor: 0.2,
+            tilt: 0.6,
+        }
+    }
+
+    fn rotate(&self, p: [f64; 3]) -> [f64; 3] {
+        let (s, c) = self.tilt.sin_cos();
+        [p[0], c * p[1] - s * p[2], s * p[1] + c * p[2]]
+    }
+
+    fn rotate_back(&self, p: [f64; 3]) -> [f64; 3] {
+        let (s, c) = self.tilt.sin_cos();
+        [p[0], c * p[1] + s * p[2], -s * p[1] + c * p[2]]
+    }
+
+    /// φ and ∇φ (exact SDF, |∇φ| = 1).
+    pub fn eval(&self, p: [f64; 3]) -> (f64, [f64; 3]) {
+        let [x, y, z] = self.rotate(p);
+        let rho = (x * x + z * z).sqrt().max(1e-12);
+        let qx = rho - self.major;
+        let ql = (qx * qx + y * y).sqrt().max(1e-12);
+        let g = [qx / ql * x / rho, y / ql, qx / ql * z / rho];
+        (ql - self.minor, self.rotate_back(g))
+    }
+
+    /// A point on the surface at angles (u around the axis, w around the tube).
+    pub fn surface_point(&self, u: f64, w: f64) -> [f64; 3] {
+        let rho = self.major + self.minor * w.cos();
+        self.rotate_back([rho * u.cos(), self.minor * w.sin(), rho * u.sin()])
+    }
+}
+
+/// A smooth colour function with values in [0.1, 0.9].
+pub fn colour(p: [f64; 3]) -> [f64; 3] {
+    [
+        0.5 + 0.4 * (3.0 * p[0] + 1.0).sin(),
+        0.5 + 0.4 * (2.0 * p[1] - 0.5).cos(),
+        0.5 + 0.4 * (2.5 * p[2] + 2.0 * p[0]).sin(),
+    ]
+}
+
+/// Pinhole camera at `eye` looking at the origin: rays through the centres
+/// of a `w`×`h` image with the given half field of view.
+pub fn camera_rays(
+    eye: [f32; 3],
+    w: usize,
+    h: usize,
+    half_fov: f32,
+) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
+    let norm = |v: [f32; 3]| {
+        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        v.map(|x| x / l)
+    };
+    let cross = |a: [f32; 3], b: [f32; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let fwd = norm(eye.map(|x| -x));
+    let right = norm(cross(fwd, [0.0, 1.0, 0.0]));
+    let up = cross(right, fwd);
+    let tan = half_fov.tan();
+    let mut origins = Vec::new();
+    let mut dirs = Vec::new();
+    for y in 0..h {
+        for x in 0..w {
+            let u = ((x as f32 + 0.5) / w as f32 * 2.0 - 1.0) * tan;
+            let v = ((y as f32 + 0.5) / h as f32 * 2.0 - 1.0) * tan;
+            let d = norm([
+                fwd[0] + u * right[0] - v * up[0],
+                fwd[1] + u * right[1] - v * up[1],
+                fwd[2] + u * right[2] - v * up[2],
+            ]);
+            origins.push(eye);
+            dirs.push(d);
+        }
+    }
+    (origins, dirs)
+}
+
+/// A small deterministic generator (xorshift64*) for test data.
+pub struct TestRng(pub u64);
+
+impl TestRng {
+    pub fn next_f64(&mut self) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        (self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.next_f64()
+    }
+}
