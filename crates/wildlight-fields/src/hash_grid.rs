@@ -1,0 +1,456 @@
+//! Multi-resolution hash encoding (Instant-NGP, Müller et al. 2022).
+//!
+//! The encoding maps a point of the unit cube `[0,1]³` to `levels × features`
+//! numbers. Level `l` is a grid with `N_l = floor(N_min · b^l)` cells per axis,
+//! `b = (N_max / N_min)^(1/(L−1))`; its vertices store learned feature vectors
+//! in a table. Coarse levels whose `(N_l+1)³` vertices fit in the table are
+//! indexed densely, the others by the spatial hash
+//! `(i · 1) xor (j · 2654435761) xor (k · 805459861) mod T`.
+//! The output of a level is the trilinear interpolation of its 8 corners.
+//!
+//! Parameter layout: one flat vector, level after level; inside a level, entry
+//! after entry, the `F` features of an entry contiguous.
+//!
+//! Backward: table gradients are accumulated level-parallel (each rayon task
+//! owns whole levels and walks all points in order), which needs no extra
+//! buffers, has no races, and is bit-identical for any thread count.
+
+use crate::error::FieldError;
+use crate::memory::{huge_vec, prefetch};
+use crate::real::Real;
+use rand::{Rng, SeedableRng};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Settings of a hash encoding.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct HashGridConfig {
+    /// Number of levels `L` (≥ 1).
+    pub n_levels: usize,
+    /// Features per level `F` (1, 2, 4 or 8).
+    pub n_features: usize,
+    /// `log2` of the maximum table size `T` per level (≤ 26).
+    pub log2_table_size: u32,
+    /// Cells per axis of the coarsest level `N_min` (≥ 1).
+    pub base_resolution: u32,
+    /// Cells per axis of the finest level `N_max` (≥ `N_min`).
+    pub finest_resolution: u32,
+    /// Table entries are drawn uniformly from `[−init_range, init_range]`.
+    pub init_range: f32,
+}
+
+impl Default for HashGridConfig {
+    /// 16 levels × 2 features, 2^19 entries, resolutions 16 … 2048.
+    fn default() -> Self {
+        HashGridConfig {
+            n_levels: 16,
+            n_features: 2,
+            log2_table_size: 19,
+            base_resolution: 16,
+            finest_resolution: 2048,
+            init_range: 1e-4,
+        }
+    }
+}
+
+/// Geometry of one level.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LevelInfo {
+    /// Cells per axis.
+    pub resolution: u32,
+    /// Table entries of this level.
+    pub entries: usize,
+    /// Offset of the level's first parameter in the flat parameter vector.
+    pub param_offset: usize,
+    /// Whether the level is indexed densely (no hashing).
+    pub dense: bool,
+}
+
+/// Points located (and prefetched) together before their table accesses.
+const BLOCK: usize = 32;
+
+const PRIME_Y: u32 = 2_654_435_761;
+const PRIME_Z: u32 = 805_459_861;
+
+/// The eight corner table indices and the per-axis fractions of one point in one level.
+#[derive(Clone, Copy)]
+struct Cell<T> {
+    index: [u32; 8],
+    frac: [T; 3],
+    /// 1 where the coordinate was inside `[0,1]` (derivative flows), 0 where clamped.
+    inside: [T; 3],
+}
+
+#[inline(always)]
+fn locate<T: Real>(level: &LevelInfo, x: [T; 3]) -> Cell<T> {
+    let res = level.resolution;
+    let scale = T::from_u32(res);
+    let mut i0 = [0u32; 3];
+    let mut frac = [T::ZERO; 3];
+    let mut inside = [T::ONE; 3];
+    for d in 0..3 {
+        let xd = x[d];
+        if !(xd >= T::ZERO && xd <= T::ONE) {
+            inside[d] = T::ZERO;
+        }
+        let xc = xd.max(T::ZERO).min(T::ONE);
+        let pos = xc * scale;
+        let fl = pos.floor().to_u32().min(res - 1);
+        i0[d] = fl;
+        frac[d] = pos - T::from_u32(fl);
+    }
+    let mut index = [0u32; 8];
+    if level.dense {
+        let r = res + 1;
+        let base = i0[0] + i0[1] * r + i0[2] * r * r;
+        let (dy, dz) = (r, r * r);
+        index = [
+            base,
+            base + 1,
+            base + dy,
+            base + dy + 1,
+            base + dz,
+            base + dz + 1,
+            base + dz + dy,
+            base + dz + dy + 1,
+        ];
+    } else {
+        let mask = (level.entries - 1) as u32;
+        let hx = [i0[0], i0[0] + 1];
+        let hy = [
+            i0[1].wrapping_mul(PRIME_Y),
+            (i0[1] + 1).wrapping_mul(PRIME_Y),
+        ];
+        let hz = [
+            i0[2].wrapping_mul(PRIME_Z),
+            (i0[2] + 1).wrapping_mul(PRIME_Z),
+        ];
+        for (c, slot) in index.iter_mut().enumerate() {
+            *slot = (hx[c & 1] ^ hy[(c >> 1) & 1] ^ hz[(c >> 2) & 1]) & mask;
+        }
+    }
+    Cell {
+        index,
+        frac,
+        inside,
+    }
+}
+
+#[inline(always)]
+fn corner_weights<T: Real>(frac: [T; 3]) -> [T; 8] {
+    let wx = [T::ONE - frac[0], frac[0]];
+    let wy = [T::ONE - frac[1], frac[1]];
+    let wz = [T::ONE - frac[2], frac[2]];
+    let mut w = [T::ZERO; 8];
+    for (c, wc) in w.iter_mut().enumerate() {
+        *wc = wx[c & 1] * wy[(c >> 1) & 1] * wz[(c >> 2) & 1];
+    }
+    w
+}
+
+/// A multi-resolution hash encoding with its parameters.
+#[derive(Clone, Debug)]
+pub struct HashGrid<T> {
+    config: HashGridConfig,
+    levels: Vec<LevelInfo>,
+    /// All table entries (see the module docs for the layout).
+    pub params: Vec<T>,
+}
+
+impl<T: Real> HashGrid<T> {
+    /// Builds the encoding with entries drawn uniformly from `±init_range` (seeded).
+    pub fn new(config: &HashGridConfig, seed: u64) -> Result<Self, FieldError> {
+        let levels = Self::layout(config)?;
+        let n: usize = levels
+            .last()
+            .map(|l| l.param_offset + l.entries * config.n_features)
+            .unwrap_or(0);
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed ^ 0x6861_7368);
+        let r = config.init_range as f64;
+        let mut params = huge_vec(n);
+        for v in params.iter_mut() {
+            *v = T::from_f64(rng.random_range(-r..=r));
+        }
+        Ok(HashGrid {
+            config: config.clone(),
+            levels,
+            params,
+        })
+    }
+
+    fn layout(c: &HashGridConfig) -> Result<Vec<LevelInfo>, FieldError> {
+        let bad = |m: &str| Err(FieldError::InvalidConfig(format!("hash grid: {m}")));
+        if c.n_levels == 0 || c.n_levels > 64 {
+            return bad("n_levels must be in 1..=64");
+        }
+        if !matches!(c.n_features, 1 | 2 | 4 | 8) {
+            return bad("n_features must be 1, 2, 4 or 8");
+        }
+        if !(1..=26).contains(&c.log2_table_size) {
+            return bad("log2_table_size must be in 1..=26");
+        }
+        if c.base_resolution == 0 || c.finest_resolution < c.base_resolution {
+            return bad("resolutions must satisfy 1 <= base_resolution <= finest_resolution");
+        }
+        if c.finest_resolution > 1 << 20 {
+            return bad("finest_resolution must be <= 2^20");
+        }
+        if !(c.init_range.is_finite() && c.init_range >= 0.0) {
+            return bad("init_range must be finite and >= 0");
+        }
+        let t = 1usize << c.log2_table_size;
+        let growth = if c.n_levels > 1 {
+            ((c.finest_resolution as f64).ln() - (c.base_resolution as f64).ln())
+                / (c.n_levels - 1) as f64
+        } else {
+            0.0
+        };
+        let mut offset = 0;
+        let mut levels = Vec::with_capacity(c.n_levels);
+        for l in 0..c.n_levels {
+            let res = ((c.base_resolution as f64) * (growth * l as f64).exp() + 1e-9).floor();
+            let res = (res as u32).clamp(1, c.finest_resolution);
+            let verts = (res as usize + 1).pow(3);
+            let dense = verts <= t;
+            let entries = if dense { verts } else { t };
+            levels.push(LevelInfo {
+                resolution: res,
+                entries,
+                param_offset: offset,
+                dense,
+            });
+            offset += entries * c.n_features;
+        }
+        Ok(levels)
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &HashGridConfig {
+        &self.config
+    }
+    /// Geometry of every level.
+    pub fn levels(&self) -> &[LevelInfo] {
+        &self.levels
+    }
+    /// Number of outputs per point (`L · F`).
+    pub fn n_outputs(&self) -> usize {
+        self.config.n_levels * self.config.n_features
+    }
+    /// Number of parameters.
+    pub fn n_params(&self) -> usize {
+        self.params.len()
+    }
+    /// Edge length of a cell of `level`, in units of the unit cube.
+    pub fn cell_size(&self, level: usize) -> f64 {
+        1.0 / self.levels[level].resolution as f64
+    }
+
+    /// Encodes `x` (points of `[0,1]³`; outside points are clamped to the cube)
+    /// into `out`: row `p` starts at `p · stride + col`, level `l` feature `f`
+    /// is written at `+ l·F + f`. Levels `≥ active_levels` output 0.
+    /// Runs on the calling thread, looping level-major over the points.
+    pub fn encode(
+        &self,
+        x: &[[T; 3]],
+        out: &mut [T],
+        stride: usize,
+        col: usize,
+        active_levels: usize,
+    ) {
+        let f = self.config.n_features;
+        assert!(col + self.n_outputs() <= stride, "encode: stride too small");
+        assert!(out.len() >= x.len().saturating_sub(1) * stride + col + self.n_outputs());
+        match f {
+            1 => self.encode_f::<1>(x, out, stride, col, active_levels),
+            2 => self.encode_f::<2>(x, out, stride, col, active_levels),
+            4 => self.encode_f::<4>(x, out, stride, col, active_levels),
+            _ => self.encode_f::<8>(x, out, stride, col, active_levels),
+        }
+    }
+
+    fn encode_f<const F: usize>(
+        &self,
+        x: &[[T; 3]],
+        out: &mut [T],
+        stride: usize,
+        col: usize,
+        active_levels: usize,
+    ) {
+        let mut idx = [[0u32; 8]; BLOCK];
+        let mut wts = [[T::ZERO; 8]; BLOCK];
+        for (l, level) in self.levels.iter().enumerate() {
+            let c0 = col + l * F;
+            if l >= active_levels {
+                for p in 0..x.len() {
+                    out[p * stride + c0..p * stride + c0 + F].fill(T::ZERO);
+                }
+                continue;
+            }
+            let table = &self.params[level.param_offset..level.param_offset + level.entries * F];
+            for (b, xs) in x.chunks(BLOCK).enumerate() {
+                // Phase 1: cells, weights and prefetches of the whole block, so
+                // that the table misses of many points are in flight together.
+                for (i, &xp) in xs.iter().enumerate() {
+                    let cell = locate(level, xp);
+                    if !level.dense {
+                        for &e in &cell.index {
+                            prefetch(table.as_ptr().wrapping_add(e as usize * F));
+                        }
+                    }
+                    idx[i] = cell.index;
+                    wts[i] = corner_weights(cell.frac);
+                }
+                // Phase 2: gather and interpolate.
+                for i in 0..xs.len() {
+                    let mut acc = [T::ZERO; F];
+                    for c in 0..8 {
+                        let e = idx[i][c] as usize * F;
+                        let v = &table[e..e + F];
+                        for k in 0..F {
+                            acc[k] += wts[i][c] * v[k];
+                        }
+                    }
+                    let o = (b * BLOCK + i) * stride + c0;
+                    out[o..o + F].copy_from_slice(&acc);
+                }
+            }
+        }
+    }
+
+    /// Accumulates table gradients: `grad += Σ_p (d out_p / d params)ᵀ · d_out_p`.
+    ///
+    /// The upstream gradients come in blocks (`d_out_blocks[b]` holds rows
+    /// `b·block_rows ..`, row `r` at `r · stride + col`), so that callers can
+    /// pass per-chunk buffers without copying. Level-parallel (see module docs).
+    #[allow(clippy::too_many_arguments)]
+    pub fn backward_params(
+        &self,
+        x: &[[T; 3]],
+        d_out_blocks: &[&[T]],
+        block_rows: usize,
+        stride: usize,
+        col: usize,
+        active_levels: usize,
+        grad: &mut [T],
+    ) {
+        assert_eq!(
+            grad.len(),
+            self.params.len(),
+            "backward_params: grad length"
+        );
+        assert!(block_rows > 0);
+        assert!(d_out_blocks.len() * block_rows >= x.len());
+        let f = self.config.n_features;
+        // Split the gradient into disjoint per-level slices.
+        let mut slices: Vec<(usize, &mut [T])> = Vec::with_capacity(self.levels.len());
+        let mut rest = grad;
+        for (l, level) in self.levels.iter().enumerate() {
+            let (head, tail) = rest.split_at_mut(level.entries * f);
+            slices.push((l, head));
+            rest = tail;
+        }
+        slices
+            .into_par_iter()
+            .filter(|(l, _)| *l < active_levels)
+            .for_each(|(l, g)| match f {
+                1 => self.backward_level::<1>(l, x, d_out_blocks, block_rows, stride, col, g),
+                2 => self.backward_level::<2>(l, x, d_out_blocks, block_rows, stride, col, g),
+                4 => self.backward_level::<4>(l, x, d_out_blocks, block_rows, stride, col, g),
+                _ => self.backward_level::<8>(l, x, d_out_blocks, block_rows, stride, col, g),
+            });
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn backward_level<const F: usize>(
+        &self,
+        l: usize,
+        x: &[[T; 3]],
+        d_out_blocks: &[&[T]],
+        block_rows: usize,
+        stride: usize,
+        col: usize,
+        g: &mut [T],
+    ) {
+        let level = &self.levels[l];
+        let c0 = col + l * F;
+        let mut idx = [[0u32; 8]; BLOCK];
+        let mut wts = [[T::ZERO; 8]; BLOCK];
+        for (b, block) in d_out_blocks.iter().enumerate() {
+            let start = b * block_rows;
+            if start >= x.len() {
+                break;
+            }
+            let end = (start + block_rows).min(x.len());
+            for (s, xs) in x[start..end].chunks(BLOCK).enumerate() {
+                for (i, &xp) in xs.iter().enumerate() {
+                    let cell = locate(level, xp);
+                    if !level.dense {
+                        for &e in &cell.index {
+                            prefetch(g.as_ptr().wrapping_add(e as usize * F));
+                        }
+                    }
+                    idx[i] = cell.index;
+                    wts[i] = corner_weights(cell.frac);
+                }
+                for i in 0..xs.len() {
+                    let r = s * BLOCK + i;
+                    let d: [T; F] = block[r * stride + c0..r * stride + c0 + F]
+                        .try_into()
+                        .expect("F features");
+                    for c in 0..8 {
+                        let e = idx[i][c] as usize * F;
+                        let gv = &mut g[e..e + F];
+                        for k in 0..F {
+                            gv[k] += wts[i][c] * d[k];
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Accumulates gradients w.r.t. the input points:
+    /// `d_x[p] += (d out_p / d x_p)ᵀ · d_out_p` (rows as in [`HashGrid::encode`]).
+    /// Coordinates outside `[0,1]` get no gradient (they are clamped).
+    pub fn backward_input(
+        &self,
+        x: &[[T; 3]],
+        d_out: &[T],
+        stride: usize,
+        col: usize,
+        active_levels: usize,
+        d_x: &mut [[T; 3]],
+    ) {
+        assert_eq!(x.len(), d_x.len());
+        let f = self.config.n_features;
+        for (l, level) in self.levels.iter().enumerate().take(active_levels) {
+            let table = &self.params[level.param_offset..level.param_offset + level.entries * f];
+            let scale = T::from_u32(level.resolution);
+            let c0 = col + l * f;
+            for (p, &xp) in x.iter().enumerate() {
+                let d = &d_out[p * stride + c0..p * stride + c0 + f];
+                let cell = locate(level, xp);
+                let [fx, fy, fz] = cell.frac;
+                let wx = [T::ONE - fx, fx];
+                let wy = [T::ONE - fy, fy];
+                let wz = [T::ONE - fz, fz];
+                let sgn = [-T::ONE, T::ONE];
+                let mut gx = [T::ZERO; 3];
+                for c in 0..8 {
+                    let (a, b, cc) = (c & 1, (c >> 1) & 1, (c >> 2) & 1);
+                    let e = cell.index[c] as usize * f;
+                    let mut vd = T::ZERO;
+                    for k in 0..f {
+                        vd += table[e + k] * d[k];
+                    }
+                    gx[0] += vd * sgn[a] * wy[b] * wz[cc];
+                    gx[1] += vd * wx[a] * sgn[b] * wz[cc];
+                    gx[2] += vd * wx[a] * wy[b] * sgn[cc];
+                }
+                for k in 0..3 {
+                    d_x[p][k] += gx[k] * scale * cell.inside[k];
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,305 @@
+//! The scalar type of the kernels: every kernel is generic over [`Real`], so the
+//! same code runs in `f32` (training, benchmarks) and in `f64` (gradient checks).
+
+use std::fmt::Debug;
+use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
+
+/// A floating-point scalar the field kernels run on (`f32` or `f64`).
+pub trait Real:
+    Copy
+    + Send
+    + Sync
+    + Default
+    + Debug
+    + PartialOrd
+    + 'static
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+    + AddAssign
+    + SubAssign
+    + MulAssign
+{
+    /// 0.
+    const ZERO: Self;
+    /// 1.
+    const ONE: Self;
+    /// Converts from `f64` (rounding).
+    fn from_f64(v: f64) -> Self;
+    /// Converts to `f64` (exact).
+    fn to_f64(self) -> f64;
+    /// Largest integer not above `self`.
+    fn floor(self) -> Self;
+    /// Square root.
+    fn sqrt(self) -> Self;
+    /// `e^self`; the `f32` version is a vectorisable polynomial (relative error < 2e-7).
+    fn exp(self) -> Self;
+    /// `ln(1 + self)` for `self ∈ [0, 1]`; the `f32` version is a vectorisable series.
+    fn ln_1p_unit(self) -> Self;
+    /// `e^self − 1`.
+    fn exp_m1(self) -> Self;
+    /// Larger of two values (`self` when either is NaN-free equal).
+    #[inline(always)]
+    fn max(self, o: Self) -> Self {
+        if self >= o { self } else { o }
+    }
+    /// Smaller of two values.
+    #[inline(always)]
+    fn min(self, o: Self) -> Self {
+        if self <= o { self } else { o }
+    }
+    /// Absolute value.
+    #[inline(always)]
+    fn abs(self) -> Self {
+        if self >= Self::ZERO { self } else { -self }
+    }
+    /// Conversion to an index after `floor` (the value must be ≥ 0).
+    fn to_u32(self) -> u32;
+    /// Conversion from a small integer.
+    fn from_u32(v: u32) -> Self;
+    /// Row-major general matrix product `C = alpha·A·B + beta·C` with explicit
+    /// strides (see [`matrixmultiply::sgemm`]).
+    ///
+    /// # Safety
+    /// The strided extents must lie inside the allocations behind the pointers.
+    #[allow(clippy::too_many_arguments)]
+    unsafe fn gemm_raw(
+        m: usize,
+        k: usize,
+        n: usize,
+        alpha: Self,
+        a: *const Self,
+        rsa: isize,
+        csa: isize,
+        b: *const Self,
+        rsb: isize,
+        csb: isize,
+        beta: Self,
+        c: *mut Self,
+        rsc: isize,
+        csc: isize,
+    );
+}
+
+impl Real for f64 {
+    const ZERO: Self = 0.0;
+    const ONE: Self = 1.0;
+    #[inline(always)]
+    fn from_f64(v: f64) -> Self {
+        v
+    }
+    #[inline(always)]
+    fn to_f64(self) -> f64 {
+        self
+    }
+    #[inline(always)]
+    fn floor(self) -> Self {
+        f64::floor(self)
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f64::sqrt(self)
+    }
+    #[inline(always)]
+    fn exp(self) -> Self {
+        f64::exp(self)
+    }
+    #[inline(always)]
+    fn ln_1p_unit(self) -> Self {
+        f64::ln_1p(self)
+    }
+    #[inline(always)]
+    fn exp_m1(self) -> Self {
+        f64::exp_m1(self)
+    }
+    #[inline(always)]
+    fn to_u32(self) -> u32 {
+        self as u32
+    }
+    #[inline(always)]
+    fn from_u32(v: u32) -> Self {
+        v as f64
+    }
+    unsafe fn gemm_raw(
+        m: usize,
+        k: usize,
+        n: usize,
+        alpha: Self,
+        a: *const Self,
+        rsa: isize,
+        csa: isize,
+        b: *const Self,
+        rsb: isize,
+        csb: isize,
+        beta: Self,
+        c: *mut Self,
+        rsc: isize,
+        csc: isize,
+    ) {
+        // SAFETY: forwarded contract of the caller.
+        unsafe {
+            matrixmultiply::dgemm(m, k, n, alpha, a, rsa, csa, b, rsb, csb, beta, c, rsc, csc)
+        }
+    }
+}
+
+impl Real for f32 {
+    const ZERO: Self = 0.0;
+    const ONE: Self = 1.0;
+    #[inline(always)]
+    fn from_f64(v: f64) -> Self {
+        v as f32
+    }
+    #[inline(always)]
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
+    #[inline(always)]
+    fn floor(self) -> Self {
+        // Branch-free floor for the range the grids use (|x| < 2^23).
+        let t = self as i32 as f32;
+        if t > self { t - 1.0 } else { t }
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f32::sqrt(self)
+    }
+    #[inline(always)]
+    fn exp(self) -> Self {
+        fast_exp_f32(self)
+    }
+    #[inline(always)]
+    fn ln_1p_unit(self) -> Self {
+        fast_ln_1p_unit_f32(self)
+    }
+    #[inline(always)]
+    fn exp_m1(self) -> Self {
+        // Accurate enough for the derivative uses (absolute error ~1e-7).
+        fast_exp_f32(self) - 1.0
+    }
+    #[inline(always)]
+    fn to_u32(self) -> u32 {
+        self as u32
+    }
+    #[inline(always)]
+    fn from_u32(v: u32) -> Self {
+        v as f32
+    }
+    unsafe fn gemm_raw(
+        m: usize,
+        k: usize,
+        n: usize,
+        alpha: Self,
+        a: *const Self,
+        rsa: isize,
+        csa: isize,
+        b: *const Self,
+        rsb: isize,
+        csb: isize,
+        beta: Self,
+        c: *mut Self,
+        rsc: isize,
+        csc: isize,
+    ) {
+        // SAFETY: forwarded contract of the caller.
+        unsafe {
+            matrixmultiply::sgemm(m, k, n, alpha, a, rsa, csa, b, rsb, csb, beta, c, rsc, csc)
+        }
+    }
+}
+
+/// `e^x` in `f32` without a libm call, so that loops over it vectorise.
+/// Range reduction `x = n·ln2 + r`, |r| ≤ ln2/2, then a degree-6 polynomial.
+#[inline(always)]
+pub fn fast_exp_f32(x: f32) -> f32 {
+    let x = x.clamp(-87.0, 88.0);
+    const LOG2E: f32 = std::f32::consts::LOG2_E;
+    const LN2_HI: f32 = 0.693_145_75;
+    const LN2_LO: f32 = 1.428_606_8e-6;
+    // Round to nearest with the 1.5·2^23 trick (no SSE4.1 `round` needed).
+    const MAGIC: f32 = 12_582_912.0;
+    let n = (x * LOG2E + MAGIC) - MAGIC;
+    let r = (x - n * LN2_HI) - n * LN2_LO;
+    // Taylor coefficients of e^r up to r^6 (error < 2e-7 on |r| ≤ 0.347).
+    let p = 1.0 / 720.0;
+    let p = p * r + 1.0 / 120.0;
+    let p = p * r + 1.0 / 24.0;
+    let p = p * r + 1.0 / 6.0;
+    let p = p * r + 0.5;
+    let p = p * r + 1.0;
+    let p = p * r + 1.0;
+    let bits = ((n as i32 + 127) << 23) as u32;
+    p * f32::from_bits(bits)
+}
+
+/// `ln(1 + u)` for `u ∈ [0, 1]` in `f32` via `2·atanh(u / (2 + u))`
+/// (s ≤ 1/3, series to s^13; relative error < 1e-7).
+#[inline(always)]
+pub fn fast_ln_1p_unit_f32(u: f32) -> f32 {
+    let s = u / (2.0 + u);
+    let s2 = s * s;
+    let p = 1.0 / 13.0;
+    let p = p * s2 + 1.0 / 11.0;
+    let p = p * s2 + 1.0 / 9.0;
+    let p = p * s2 + 1.0 / 7.0;
+    let p = p * s2 + 1.0 / 5.0;
+    let p = p * s2 + 1.0 / 3.0;
+    let p = p * s2 + 1.0;
+    2.0 * s * p
+}
+
+/// Safe wrapper of [`Real::gemm_raw`] for row-major operands:
+/// `C[m×n] = alpha · op(A)[m×k] · op(B)[k×n] + beta · C`, where `op` transposes
+/// when the flag is set. `a`, `b`, `c` are dense row-major matrices
+/// (`A` is `m×k`, or `k×m` when transposed; `B` is `k×n`, or `n×k` when transposed).
+#[allow(clippy::too_many_arguments)]
+pub fn gemm<T: Real>(
+    m: usize,
+    k: usize,
+    n: usize,
+    alpha: T,
+    a: &[T],
+    a_transposed: bool,
+    b: &[T],
+    b_transposed: bool,
+    beta: T,
+    c: &mut [T],
+) {
+    assert!(a.len() >= m * k, "gemm: A too small");
+    assert!(b.len() >= k * n, "gemm: B too small");
+    assert!(c.len() >= m * n, "gemm: C too small");
+    if m == 0 || n == 0 {
+        return;
+    }
+    let (rsa, csa) = if a_transposed {
+        (1, m as isize)
+    } else {
+        (k as isize, 1)
+    };
+    let (rsb, csb) = if b_transposed {
+        (1, k as isize)
+    } else {
+        (n as isize, 1)
+    };
+    // SAFETY: the asserts above bound every strided access inside the slices.
+    unsafe {
+        T::gemm_raw(
+            m,
+            k,
+            n,
+            alpha,
+            a.as_ptr(),
+            rsa,
+            csa,
+            b.as_ptr(),
+            rsb,
+            csb,
+            beta,
+            c.as_mut_ptr(),
+            n as isize,
+            1,
+        )
+    }
+}
