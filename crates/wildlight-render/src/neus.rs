@@ -65,12 +65,20 @@ pub fn cos_anneal_ratio(step: u64, anneal_end: u64) -> f64 {
 pub struct NeusSettings {
     /// The cos-annealing ratio r ∈ [0, 1] (see [`cos_anneal_ratio`]).
     pub cos_anneal_ratio: f64,
+    /// The ε of the alpha formula ([`ALPHA_EPS`] = 1e-5 per SPEC §2).
+    ///
+    /// Far from the surface Φ_s(φ⁻) ≈ Φ_s(φ⁺) ≈ 1 and alpha ≈ ε: every
+    /// sample adds about ε of opacity, so Σw depends on the sample count
+    /// (n·ε; 0.06 for 6000 dense samples, ≤ 1e-3 for the fast sampler).
+    /// Comparisons between samplers set it to 0 to see the sampling error alone.
+    pub alpha_eps: f64,
 }
 
 impl Default for NeusSettings {
     fn default() -> Self {
         Self {
             cos_anneal_ratio: 1.0,
+            alpha_eps: ALPHA_EPS,
         }
     }
 }
@@ -123,11 +131,10 @@ fn sigmoid_with_derivative<T: Scalar>(x: T) -> (T, T) {
 /// The NeuS alpha of one sample (module docs; SPEC §2) from φ, the slope
 /// q = d·∇φ, δ, s and the cos-annealing ratio r.
 #[inline(always)]
-fn alpha_partials<T: Scalar>(sdf: T, slope: T, delta: T, s: T, r: T) -> AlphaPartials<T> {
+fn alpha_partials<T: Scalar>(sdf: T, slope: T, delta: T, s: T, r: T, eps: T) -> AlphaPartials<T> {
     let zero = T::of(0.0);
     let one = T::of(1.0);
     let half = T::of(0.5);
-    let eps = T::of(ALPHA_EPS);
     // Cos annealing (NeuS): ĉ = −(relu(½ − ½q)(1 − r) + relu(−q) r) ≤ 0.
     let a = (half - half * slope).max(zero);
     let b = (-slope).max(zero);
@@ -144,11 +151,22 @@ fn alpha_partials<T: Scalar>(sdf: T, slope: T, delta: T, s: T, r: T) -> AlphaPar
     let next = sdf + iter_cos * delta * half;
     let (p, dp) = sigmoid_with_derivative(s * prev);
     let (n, dn) = sigmoid_with_derivative(s * next);
-    let raw = (p - n + eps) / (p + eps);
-    if !(raw >= zero && raw <= one) {
-        // Clamped (or NaN): zero derivative, as the clamped function has.
+    let denom = p + eps;
+    if denom == zero {
+        // Only with ε = 0, deep inside: the limit of 1 − N/P is 1 (opaque).
         return AlphaPartials {
-            alpha: raw.max(zero).min(one),
+            alpha: one,
+            d_sdf: zero,
+            d_slope: zero,
+            d_s: zero,
+        };
+    }
+    let raw = (p - n + eps) / denom;
+    if raw < zero || raw > one {
+        // Clamped: zero derivative, as the clamped function has. (A NaN
+        // falls through both tests and propagates.)
+        return AlphaPartials {
+            alpha: if raw < zero { zero } else { one },
             d_sdf: zero,
             d_slope: zero,
             d_s: zero,
@@ -216,6 +234,7 @@ impl<T: Scalar> NeusWeights<T> {
         self.acc_weight.resize(n_rays, zero);
         let (s, _) = sharpness(v);
         let r = T::of(settings.cos_anneal_ratio);
+        let eps = T::of(settings.alpha_eps);
         let chunks = ray_chunks(inputs.offsets);
         let alpha = split_mut(&mut self.alpha, chunks.iter().map(|c| c.samples.clone()));
         let weight = split_mut(&mut self.weight, chunks.iter().map(|c| c.samples.clone()));
@@ -238,7 +257,8 @@ impl<T: Scalar> NeusWeights<T> {
                     let range = inputs.offsets[ray] as usize..inputs.offsets[ray + 1] as usize;
                     for k in range {
                         let slope = dot3(dir, inputs.sdf_grad[k]);
-                        let a = alpha_partials(inputs.sdf[k], slope, inputs.delta[k], s, r).alpha;
+                        let a =
+                            alpha_partials(inputs.sdf[k], slope, inputs.delta[k], s, r, eps).alpha;
                         let l = k - base;
                         alpha[l] = a;
                         weight[l] = t * a;
@@ -286,6 +306,7 @@ impl<T: Scalar> NeusWeights<T> {
         }
         let (s, ds_dv) = sharpness(v);
         let r = T::of(settings.cos_anneal_ratio);
+        let eps = T::of(settings.alpha_eps);
         let chunks = ray_chunks(inputs.offsets);
         let d_sdf = split_mut(d_sdf, chunks.iter().map(|c| c.samples.clone()));
         let d_grad = split_mut(d_sdf_grad, chunks.iter().map(|c| c.samples.clone()));
@@ -309,7 +330,7 @@ impl<T: Scalar> NeusWeights<T> {
                         let d_alpha = self.transmittance[k] * (g - rest);
                         rest = a * g + (T::of(1.0) - a) * rest;
                         let slope = dot3(dir, inputs.sdf_grad[k]);
-                        let p = alpha_partials(inputs.sdf[k], slope, inputs.delta[k], s, r);
+                        let p = alpha_partials(inputs.sdf[k], slope, inputs.delta[k], s, r, eps);
                         let l = k - base;
                         d_sdf[l] += d_alpha * p.d_sdf;
                         let d_slope = d_alpha * p.d_slope;

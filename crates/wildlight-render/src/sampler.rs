@@ -145,7 +145,8 @@ pub struct SamplerSettings {
     pub bound_radius: f32,
     /// Coarse sections per grid cell length.
     pub coarse_steps_per_cell: f32,
-    /// Most coarse sections per ray (besides one per extra interval).
+    /// Most coarse sections per ray, plus one per sampled interval shorter
+    /// than a coarse step (the final sections are at most that + `n_fine`).
     pub max_coarse: usize,
     /// Importance samples per ray.
     pub n_fine: usize,
@@ -266,7 +267,8 @@ impl Sampler {
                         let step = base_step.max(total / st.max_coarse as f32);
                         for iv in &intervals {
                             let len = iv[1] - iv[0];
-                            let n = ((len / step).ceil() as usize).max(1);
+                            // floor keeps Σn ≤ max_coarse (+1 per interval shorter than a step).
+                            let n = ((len / step).floor() as usize).max(1);
                             for j in 0..n {
                                 buf.t.push(iv[0] + len * j as f32 / n as f32);
                                 buf.flags.push(true);

@@ -170,6 +170,7 @@ fn check(name: &str, analytic: f64, numeric: f64) {
 fn fd_check_all(seed: u64, ratio: f64) {
     let settings = NeusSettings {
         cos_anneal_ratio: ratio,
+        ..Default::default()
     };
     let p = problem(seed, &[0, 3, 7, 1, 12, 5]);
     let g = analytic(&p, &settings);
@@ -225,7 +226,7 @@ fn neus_backward_matches_finite_differences_at_start_of_annealing() {
 }
 
 /// For an exactly linear SDF along a ray and contiguous sections, the NeuS
-/// transmittance telescopes: 1 − Σw ≈ Φ_s(φ(end)) / Φ_s(φ(start)), whatever
+/// transmittance (with ε = 0) telescopes: 1 − Σw ≈ Φ_s(φ(end)) / Φ_s(φ(start)), whatever
 /// the number of sections.
 #[test]
 fn accumulated_weight_telescopes_for_a_linear_sdf() {
@@ -251,7 +252,12 @@ fn accumulated_weight_telescopes_for_a_linear_sdf() {
             delta: &deltas,
         };
         let mut w = NeusWeights::new();
-        w.forward(&inputs, v, &NeusSettings::default());
+        // ε = 0: the exact telescoping (the SPEC's ε adds ≈ ε opacity per section).
+        let exact = NeusSettings {
+            alpha_eps: 0.0,
+            ..Default::default()
+        };
+        w.forward(&inputs, v, &exact);
         let expected = 1.0 - sig(s * (phi0 + slope * t1)) / sig(s * phi0);
         assert!(
             (w.acc_weight[0] - expected).abs() < 1e-3,

@@ -1,0 +1,165 @@
+//! The occupancy grid never marks a cell that contains surface as skippable.
+
+mod common;
+
+use common::Torus;
+use wildlight_render::occupancy::{CellState, OccupancyGrid, OccupancySettings, RefreshMode};
+
+fn sphere_sdf(radius: f32) -> impl FnMut(&[[f32; 3]], &mut [f32]) {
+    move |p: &[[f32; 3]], out: &mut [f32]| {
+        for (o, x) in out.iter_mut().zip(p) {
+            *o = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt() - radius;
+        }
+    }
+}
+
+/// Every cell whose box meets the sphere |x| = radius (exact box test) is a surface cell.
+fn assert_sphere_covered(grid: &OccupancyGrid, radius: f64) -> usize {
+    let r = grid.resolution();
+    let h = 2.0 / r as f64;
+    let mut crossing = 0;
+    for z in 0..r {
+        for y in 0..r {
+            for x in 0..r {
+                let (mut near2, mut far2) = (0.0f64, 0.0f64);
+                for c in [x, y, z] {
+                    let lo = -1.0 + c as f64 * h;
+                    let hi = lo + h;
+                    let n = 0.0f64.clamp(lo, hi);
+                    near2 += n * n;
+                    far2 += lo.abs().max(hi.abs()).powi(2);
+                }
+                if near2.sqrt() <= radius && radius <= far2.sqrt() {
+                    crossing += 1;
+                    let i = grid.cell_index(x, y, z);
+                    assert_eq!(
+                        grid.state(i),
+                        CellState::Surface,
+                        "cell ({x},{y},{z}) contains surface"
+                    );
+                }
+            }
+        }
+    }
+    crossing
+}
+
+#[test]
+fn sphere_surface_cells_are_never_skipped_even_with_the_tightest_band() {
+    // Lipschitz 1, no margin, huge s: band = the cell half-diagonal, the
+    // smallest band that is still correct for an exact SDF.
+    let settings = OccupancySettings {
+        resolution: 48,
+        lipschitz: 1.0,
+        tail: 1e-6,
+        margin: 1e-6,
+    };
+    let mut grid = OccupancyGrid::new(settings).unwrap();
+    let measured = grid.refresh(sphere_sdf(0.55), 1e6, RefreshMode::Full);
+    assert!(measured < 48 * 48 * 48 && measured > 48 * 48 * 48 / 2);
+    let crossing = assert_sphere_covered(&grid, 0.55);
+    let (surface, inside, empty) = grid.counts();
+    assert!(crossing > 1000);
+    // The grid does skip: most cells are empty or inside, and the surface
+    // shell is at most a few cells thick.
+    assert!(
+        surface < 3 * crossing,
+        "surface {surface} vs crossing {crossing}"
+    );
+    assert!(inside > 0 && empty > surface);
+}
+
+#[test]
+fn torus_surface_points_lie_in_surface_cells() {
+    let torus = Torus::standard();
+    let mut grid = OccupancyGrid::new(OccupancySettings {
+        resolution: 64,
+        ..Default::default()
+    })
+    .unwrap();
+    grid.refresh(
+        |p: &[[f32; 3]], out: &mut [f32]| {
+            for (o, x) in out.iter_mut().zip(p) {
+                *o = torus.eval(x.map(f64::from)).0 as f32;
+            }
+        },
+        1500.0,
+        RefreshMode::Full,
+    );
+    let (nu, nw) = (1200, 500);
+    for i in 0..nu {
+        for j in 0..nw {
+            let u = i as f64 / nu as f64 * std::f64::consts::TAU;
+            let w = j as f64 / nw as f64 * std::f64::consts::TAU;
+            let p = torus.surface_point(u, w).map(|x| x as f32);
+            assert_eq!(grid.state_at(p), CellState::Surface, "surface point {p:?}");
+        }
+    }
+    assert!(
+        grid.occupied_fraction() < 0.35,
+        "fraction {}",
+        grid.occupied_fraction()
+    );
+}
+
+#[test]
+fn partial_refresh_follows_a_surface_that_moves_less_than_the_margin() {
+    let settings = OccupancySettings {
+        resolution: 40,
+        ..Default::default()
+    };
+    let mut grid = OccupancyGrid::new(settings).unwrap();
+    grid.refresh(sphere_sdf(0.6), 800.0, RefreshMode::Full);
+    assert_sphere_covered(&grid, 0.6);
+    let full_count = grid.counts();
+    let mut measured = 0;
+    for step in 1..=3 {
+        let r = 0.6 + 0.0015 * step as f32;
+        measured = grid.refresh(sphere_sdf(r), 800.0, RefreshMode::Partial { stride: 8 });
+        assert_sphere_covered(&grid, r as f64);
+    }
+    // A partial refresh measures far fewer cells than the whole sphere.
+    let (s, i, e) = full_count;
+    assert!(measured < (s + i + e) / 2, "measured {measured}");
+}
+
+#[test]
+fn reclassify_widens_the_band_for_small_sharpness() {
+    let mut grid = OccupancyGrid::new(OccupancySettings {
+        resolution: 32,
+        ..Default::default()
+    })
+    .unwrap();
+    grid.refresh(sphere_sdf(0.5), 2000.0, RefreshMode::Full);
+    let sharp = grid.occupied_fraction();
+    grid.reclassify(20.0);
+    // band = 0.5 + … > 0.5: every cell near the sphere, and all inside, is sampled.
+    assert!(grid.current_band() > 0.5);
+    assert!(grid.occupied_fraction() > sharp);
+    assert_eq!(grid.state_at([0.0, 0.0, 0.0]), CellState::Surface);
+}
+
+#[test]
+fn invalid_settings_are_rejected() {
+    assert!(
+        OccupancyGrid::new(OccupancySettings {
+            resolution: 1,
+            ..Default::default()
+        })
+        .is_err()
+    );
+    assert!(
+        OccupancyGrid::new(OccupancySettings {
+            lipschitz: 0.5,
+            ..Default::default()
+        })
+        .is_err()
+    );
+    assert!(
+        OccupancyGrid::new(OccupancySettings {
+            margin: f32::NAN,
+            ..Default::default()
+        })
+        .is_err()
+    );
+}
