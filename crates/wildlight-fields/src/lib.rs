@@ -16,6 +16,10 @@
 //! reductions in a fixed order: results are bit-identical for the same seed,
 //! whatever the thread count.
 
+// Kernels index small fixed-size arrays (corners, axes, features) in step,
+// as the formulas do; iterator zips would obscure them.
+#![allow(clippy::needless_range_loop)]
+
 pub mod activation;
 pub mod adam;
 pub mod bench;

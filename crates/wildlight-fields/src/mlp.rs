@@ -140,7 +140,7 @@ impl<T: Real> Mlp<T> {
             layers,
             params: vec![T::ZERO; off],
         };
-        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed ^ 0x6d6c_70);
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed ^ 0x006d_6c70);
         for li in mlp.layers.clone() {
             let lim = (6.0 / (li.n_in + li.n_out) as f64).sqrt();
             for v in &mut mlp.params[li.weight_offset..li.bias_offset] {
@@ -346,6 +346,7 @@ impl<T: Real> Mlp<T> {
 
     /// Re-initialises layer `layer`'s weights with `N(mean, std²)` for columns
     /// `cols` of rows `rows`, and sets those rows' biases to `bias` (when given).
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn init_block<R: Rng>(
         &mut self,
         layer: usize,

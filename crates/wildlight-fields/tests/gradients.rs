@@ -1,5 +1,8 @@
 //! Finite-difference gradient checks in f64 of every hand-written backward pass.
 
+// Gradient checks index parameters, points and axes together.
+#![allow(clippy::needless_range_loop)]
+
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use wildlight_fields::*;
