@@ -133,6 +133,7 @@ pub fn flash_forward<T: Scalar>(
 ///
 /// # Panics
 /// If the inputs are inconsistent or a buffer has the wrong length.
+#[allow(clippy::needless_range_loop)] // several parallel arrays share the index
 pub fn flash_backward<T: Scalar>(
     inputs: &FlashInputs<'_, T>,
     log_gain: T,

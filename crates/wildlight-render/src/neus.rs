@@ -278,6 +278,7 @@ impl<T: Scalar> NeusWeights<T> {
     ///
     /// # Panics
     /// If array lengths disagree with the forward pass.
+    #[allow(clippy::too_many_arguments)]
     pub fn backward(
         &self,
         inputs: &NeusInputs<'_, T>,

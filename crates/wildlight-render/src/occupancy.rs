@@ -338,7 +338,7 @@ impl OccupancyGrid {
         far: f32,
         mut visit: impl FnMut(f32, f32, CellState) -> bool,
     ) {
-        if !(far > near) {
+        if !matches!(far.partial_cmp(&near), Some(std::cmp::Ordering::Greater)) {
             return;
         }
         let r = self.settings.resolution as i32;

@@ -56,10 +56,10 @@ pub fn ray_chunks(offsets: &[u32]) -> Vec<RayChunk> {
 
 /// Splits `slice` into consecutive mutable pieces of the given contiguous
 /// ranges (which must start at 0 and cover `slice` in order).
-pub fn split_mut<'a, X>(
-    mut slice: &'a mut [X],
+pub fn split_mut<X>(
+    mut slice: &mut [X],
     ranges: impl Iterator<Item = Range<usize>>,
-) -> Vec<&'a mut [X]> {
+) -> Vec<&mut [X]> {
     let mut out = Vec::new();
     for r in ranges {
         let (head, tail) = slice.split_at_mut(r.end - r.start);

@@ -1,5 +1,6 @@
 //! The flash term: value against SPEC §2 written with positions, and
 //! finite-difference checks (f64) of its backward pass.
+#![allow(clippy::needless_range_loop)] // index-heavy test arithmetic over parallel arrays
 
 mod common;
 

@@ -1,4 +1,5 @@
 //! Finite-difference checks (f64) of the NeuS weights and compositing backward passes.
+#![allow(clippy::needless_range_loop)] // index-heavy test arithmetic over parallel arrays
 
 mod common;
 

@@ -1,4 +1,5 @@
 //! The occupancy grid never marks a cell that contains surface as skippable.
+#![allow(clippy::needless_range_loop)] // index-heavy test arithmetic over parallel arrays
 
 mod common;
 

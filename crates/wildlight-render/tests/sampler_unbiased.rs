@@ -1,5 +1,6 @@
 //! The fast sampler (occupancy grid + hierarchical refinement) renders the
 //! same image as dense uniform sampling, and its sections are well formed.
+#![allow(clippy::needless_range_loop)] // index-heavy test arithmetic over parallel arrays
 
 mod common;
 
