@@ -181,3 +181,39 @@ pub fn ray_maps(offsets: &[u32], weight: &[f32], t: &[f32], sdf_grad: &[[f32; 3]
         });
     maps
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn composite_sums_weighted_attributes_per_ray() {
+        let offsets = [0u32, 2, 2, 5];
+        let weight = [0.5f64, 0.25, 0.1, 0.2, 0.3];
+        let attr = [[1.0, 2.0], [4.0, 0.0], [1.0, 1.0], [2.0, 0.0], [0.0, 10.0]];
+        let mut out = [[9.0; 2]; 3];
+        composite(&offsets, &weight, &attr, &mut out);
+        assert_eq!(out[0], [1.5, 1.0]);
+        assert_eq!(out[1], [0.0, 0.0]);
+        assert!((out[2][0] - 0.5).abs() < 1e-15 && (out[2][1] - 3.1).abs() < 1e-15);
+        let mut d_w = [0.0; 5];
+        acc_weight_backward(&offsets, &[1.0, 7.0, -2.0], &mut d_w);
+        assert_eq!(d_w, [1.0, 1.0, -2.0, -2.0, -2.0]);
+    }
+
+    #[test]
+    fn ray_maps_normalise_depth_and_normal() {
+        let offsets = [0u32, 2, 2];
+        let weight = [0.2f32, 0.6];
+        let t = [1.0f32, 2.0];
+        let grad = [[0.0f32, 0.0, 2.0], [0.0, 0.0, 0.5]];
+        let maps = ray_maps(&offsets, &weight, &t, &grad);
+        assert!((maps.acc_weight[0] - 0.8).abs() < 1e-6);
+        assert!((maps.depth[0] - 1.75).abs() < 1e-6);
+        assert_eq!(maps.normal[0], [0.0, 0.0, 1.0]);
+        assert_eq!(
+            (maps.acc_weight[1], maps.depth[1], maps.normal[1]),
+            (0.0, 0.0, [0.0; 3])
+        );
+    }
+}

@@ -69,6 +69,17 @@ pub fn split_mut<X>(
     out
 }
 
+/// Writes the ray index of every sample into `out` (resized to the sample
+/// count), for gathering per-ray data (view direction, light energy) per sample.
+pub fn sample_rays(offsets: &[u32], out: &mut Vec<u32>) {
+    out.clear();
+    out.reserve(sample_count(offsets));
+    for ray in 0..ray_count(offsets) {
+        let n = (offsets[ray + 1] - offsets[ray]) as usize;
+        out.extend(std::iter::repeat_n(ray as u32, n));
+    }
+}
+
 /// Checks that `offsets` is a valid packing of `n_samples` samples:
 /// starts at 0, never decreases and ends at `n_samples`.
 pub fn validate_offsets(offsets: &[u32], n_samples: usize) -> bool {
@@ -102,6 +113,12 @@ mod tests {
         assert_eq!(pieces.len(), 3);
         assert_eq!(pieces[1].len(), chunks[1].samples.len());
         assert!(validate_offsets(&offsets, sample_count(&offsets)));
+        let mut rays = Vec::new();
+        sample_rays(&offsets, &mut rays);
+        assert_eq!(rays.len(), sample_count(&offsets));
+        for (k, &r) in rays.iter().enumerate() {
+            assert!(samples_of(&offsets, r as usize).contains(&k));
+        }
         assert!(!validate_offsets(&[0, 3, 2], 2));
         assert!(!validate_offsets(&[1, 3], 3));
     }
