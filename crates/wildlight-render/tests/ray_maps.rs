@@ -1,4 +1,5 @@
 //! Depth, normal and mask maps from the fast sampler match the analytic
+#![allow(clippy::needless_range_loop)] // index-heavy test arithmetic over parallel arrays
 //! ray–sphere intersection.
 
 use wildlight_render::composite::ray_maps;
