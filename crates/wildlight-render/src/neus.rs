@@ -187,6 +187,30 @@ fn alpha_partials<T: Scalar>(sdf: T, slope: T, delta: T, s: T, r: T, eps: T) -> 
     }
 }
 
+/// The NeuS alpha of one sample without derivatives (same formula as
+/// [`alpha_partials`]; the forward pass uses this one).
+#[inline(always)]
+fn alpha_value<T: Scalar>(sdf: T, slope: T, delta: T, s: T, r: T, eps: T) -> T {
+    let zero = T::of(0.0);
+    let one = T::of(1.0);
+    let half = T::of(0.5);
+    let iter_cos = -((half - half * slope).max(zero) * (one - r) + (-slope).max(zero) * r);
+    let p = sigmoid_with_derivative(s * (sdf - iter_cos * delta * half)).0;
+    let n = sigmoid_with_derivative(s * (sdf + iter_cos * delta * half)).0;
+    let denom = p + eps;
+    if denom == zero {
+        return one;
+    }
+    let raw = (p - n + eps) / denom;
+    if raw < zero {
+        zero
+    } else if raw > one {
+        one
+    } else {
+        raw
+    }
+}
+
 /// NeuS alphas and weights of a batch of rays, kept for the backward pass.
 #[derive(Clone, Debug, Default)]
 pub struct NeusWeights<T> {
@@ -257,8 +281,7 @@ impl<T: Scalar> NeusWeights<T> {
                     let range = inputs.offsets[ray] as usize..inputs.offsets[ray + 1] as usize;
                     for k in range {
                         let slope = dot3(dir, inputs.sdf_grad[k]);
-                        let a =
-                            alpha_partials(inputs.sdf[k], slope, inputs.delta[k], s, r, eps).alpha;
+                        let a = alpha_value(inputs.sdf[k], slope, inputs.delta[k], s, r, eps);
                         let l = k - base;
                         alpha[l] = a;
                         weight[l] = t * a;
@@ -349,5 +372,48 @@ impl<T: Scalar> NeusWeights<T> {
             d_s += x;
         }
         d_s * ds_dv
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn value_only_alpha_equals_alpha_of_the_partials() {
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for i in 0..2000 {
+            let sdf = next() * 0.6 - 0.3;
+            let slope = next() * 3.0 - 1.5;
+            let delta = next() * 0.05;
+            let s = (next() * 9.0).exp();
+            let r = next();
+            let eps = if i % 2 == 0 { ALPHA_EPS } else { 0.0 };
+            let a = alpha_value(sdf, slope, delta, s, r, eps);
+            let b = alpha_partials(sdf, slope, delta, s, r, eps).alpha;
+            assert_eq!(a.to_bits(), b.to_bits(), "{sdf} {slope} {delta} {s} {r}");
+            assert!((0.0..=1.0).contains(&a));
+        }
+        // Deep inside with ε = 0: opaque.
+        assert_eq!(alpha_value(-1.0f64, -1.0, 0.01, 1e6, 1.0, 0.0), 1.0);
+        // Far outside: alpha ≈ ε.
+        let far = alpha_value(1.0f64, -1.0, 0.01, 1e3, 1.0, ALPHA_EPS);
+        assert!((far - ALPHA_EPS).abs() < 1e-9);
+    }
+
+    #[test]
+    fn sharpness_is_exp_of_ten_v_and_clamped() {
+        let (s, ds) = sharpness(V_INIT);
+        assert!((s - 3f64.exp()).abs() < 1e-12 && (ds - 10.0 * s).abs() < 1e-9);
+        assert_eq!(sharpness(10.0f64), (SHARPNESS_MAX, 0.0));
+        assert_eq!(cos_anneal_ratio(500, 1000), 0.5);
+        assert_eq!(cos_anneal_ratio(5000, 1000), 1.0);
+        assert_eq!(cos_anneal_ratio(0, 0), 1.0);
     }
 }

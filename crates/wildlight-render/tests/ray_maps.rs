@@ -1,6 +1,6 @@
 //! Depth, normal and mask maps from the fast sampler match the analytic
-#![allow(clippy::needless_range_loop)] // index-heavy test arithmetic over parallel arrays
 //! ray–sphere intersection.
+#![allow(clippy::needless_range_loop)] // index-heavy test arithmetic over parallel arrays
 
 use wildlight_render::composite::ray_maps;
 use wildlight_render::neus::{NeusInputs, NeusSettings, NeusWeights};
