@@ -112,6 +112,8 @@ impl<T> NeusInputs<'_, T> {
 /// Alpha of one sample and its partial derivatives (zero where clamped).
 #[derive(Clone, Copy, Debug)]
 struct AlphaPartials<T> {
+    /// The value (the passes use [`alpha_value`]; tests compare the two).
+    #[cfg_attr(not(test), allow(dead_code))]
     alpha: T,
     d_sdf: T,
     d_slope: T,
