@@ -4,7 +4,7 @@
 //!
 //! - [`packing`]: rays with varying sample counts in flat arrays;
 //! - [`neus`]: NeuS alphas and weights, forward/backward (∂φ, ∂∇φ, ∂v);
-//! - [`composite`]: Σ w_k c_k of any per-sample attribute, forward/backward,
+//! - [`mod@composite`]: Σ w_k c_k of any per-sample attribute, forward/backward,
 //!   and per-ray depth/normal/mask maps;
 //! - [`flash`]: the co-located flash term, forward/backward (∂Θ, ∂∇φ, ∂γ);
 //! - [`sh`]: spherical-harmonics encoding of view directions;
@@ -26,6 +26,8 @@
 //!    [`flash::flash_backward`] (∂c → ∂Θ, ∂∇φ, ∂g),
 //!    [`neus::NeusWeights::backward`] (∂w, ∂Σw → ∂φ, ∂∇φ, ∂v);
 //!    then the fields' backward passes.
+
+#![deny(missing_docs)]
 
 pub mod composite;
 pub mod error;

@@ -16,7 +16,7 @@
 //! (the directional derivative of φ, which is the cosine when |∇φ| = 1), so
 //! φ⁻ and φ⁺ are the first-order estimates of φ at the section ends.
 //!
-//! The backward pass takes ∂L/∂w_k (from [`crate::composite`], which turns
+//! The backward pass takes ∂L/∂w_k (from [`mod@crate::composite`], which turns
 //! ∂L/∂(colour), ∂L/∂(per-sample colour) and friends into it) and ∂L/∂(Σ_k w_k)
 //! per ray, and produces ∂L/∂φ_k, ∂L/∂∇φ_k and ∂L/∂v. A background behind
 //! the object is composited as `C += b·(1 − Σ w)`: pass −∂L/∂C·b as part of
