@@ -25,6 +25,9 @@ use rayon::prelude::*;
 
 use crate::error::{RenderError, check};
 
+/// Edge length, in cells, of the blocks the march skips at once.
+const BLOCK: usize = 4;
+
 /// Settings of the occupancy grid.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct OccupancySettings {
@@ -84,6 +87,9 @@ pub struct OccupancyGrid {
     surface: Vec<u64>,
     /// Bit set of inside cells.
     inside: Vec<u64>,
+    /// Per block of BLOCK³ cells: whether any cell in it is sampled (lets
+    /// the march cross empty blocks in one step).
+    block_sampled: Vec<bool>,
     /// The band the bits were computed with.
     band: f32,
     /// Number of refreshes done (drives the partial-refresh rotation).
@@ -149,6 +155,7 @@ impl OccupancyGrid {
             in_sphere,
             surface: vec![0; words],
             inside: vec![0; words],
+            block_sampled: vec![true; r.div_ceil(BLOCK).pow(3)],
             band: f32::INFINITY,
             round: 0,
             scratch_index: Vec::new(),
@@ -325,11 +332,27 @@ impl OccupancyGrid {
                 *surf = s_bits;
                 *ins = i_bits;
             });
+        let r = self.settings.resolution;
+        let rb = r.div_ceil(BLOCK);
+        self.block_sampled.iter_mut().for_each(|b| *b = false);
+        for z in 0..r {
+            for y in 0..r {
+                for x in 0..r {
+                    let i = x + r * (y + r * z);
+                    let (w, b) = (i / 64, 1u64 << (i % 64));
+                    if (self.surface[w] | self.inside[w]) & b != 0 {
+                        let bi = x / BLOCK + rb * (y / BLOCK + rb * (z / BLOCK));
+                        self.block_sampled[bi] = true;
+                    }
+                }
+            }
+        }
     }
 
     /// Walks the cells that ray o + t·d crosses for t in [near, far]
     /// (3D-DDA), calling `visit(t_enter, t_exit, state)` in order until it
-    /// returns false.
+    /// returns false. Blocks of 4³ cells without a sampled cell are crossed
+    /// in one visit (reported as [`CellState::Empty`]).
     pub fn march(
         &self,
         o: [f32; 3],
@@ -342,7 +365,9 @@ impl OccupancyGrid {
             return;
         }
         let r = self.settings.resolution as i32;
+        let rb = self.settings.resolution.div_ceil(BLOCK);
         let h = self.cell_size();
+        let b = BLOCK as i32;
         let mut cell = [0i32; 3];
         let mut t_next = [f32::INFINITY; 3];
         let mut t_delta = [f32::INFINITY; 3];
@@ -352,16 +377,70 @@ impl OccupancyGrid {
             cell[a] = (((p + 1.0) / h).floor() as i32).clamp(0, r - 1);
             if d[a] > 0.0 {
                 step[a] = 1;
-                t_next[a] = (-1.0 + (cell[a] + 1) as f32 * h - o[a]) / d[a];
                 t_delta[a] = h / d[a];
             } else if d[a] < 0.0 {
                 step[a] = -1;
-                t_next[a] = (-1.0 + cell[a] as f32 * h - o[a]) / d[a];
                 t_delta[a] = -h / d[a];
             }
         }
+        // Time at which the ray leaves cell index c along axis a.
+        let boundary = |a: usize, c: i32| -> f32 {
+            match step[a] {
+                1 => (-1.0 + (c + 1) as f32 * h - o[a]) / d[a],
+                -1 => (-1.0 + c as f32 * h - o[a]) / d[a],
+                _ => f32::INFINITY,
+            }
+        };
+        for a in 0..3 {
+            t_next[a] = boundary(a, cell[a]);
+        }
         let mut t = near;
         loop {
+            let blk = cell.map(|c| c / b);
+            let bi = blk[0] as usize + rb * (blk[1] as usize + rb * blk[2] as usize);
+            if !self.block_sampled[bi] {
+                // Cross the whole empty block at once.
+                let mut axis = 0;
+                let mut t_exit = f32::INFINITY;
+                for a in 0..3 {
+                    let edge = match step[a] {
+                        1 => ((blk[a] + 1) * b).min(r) - 1,
+                        -1 => blk[a] * b,
+                        _ => continue,
+                    };
+                    let te = boundary(a, edge);
+                    if te < t_exit {
+                        t_exit = te;
+                        axis = a;
+                    }
+                }
+                let t_exit = t_exit.min(far).max(t);
+                if !visit(t, t_exit, CellState::Empty) || t_exit >= far {
+                    return;
+                }
+                t = t_exit;
+                for a in 0..3 {
+                    if a == axis {
+                        cell[a] = if step[a] > 0 {
+                            ((blk[a] + 1) * b).min(r)
+                        } else {
+                            blk[a] * b - 1
+                        };
+                    } else {
+                        let lo = blk[a] * b;
+                        let hi = ((blk[a] + 1) * b).min(r) - 1;
+                        let p = o[a] + d[a] * t;
+                        cell[a] = (((p + 1.0) / h).floor() as i32).clamp(lo, hi);
+                    }
+                }
+                if cell[axis] < 0 || cell[axis] >= r {
+                    return;
+                }
+                for a in 0..3 {
+                    t_next[a] = boundary(a, cell[a]);
+                }
+                continue;
+            }
             let axis = if t_next[0] <= t_next[1] && t_next[0] <= t_next[2] {
                 0
             } else if t_next[1] <= t_next[2] {
