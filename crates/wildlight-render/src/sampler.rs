@@ -268,7 +268,7 @@ impl Sampler {
                         for iv in &intervals {
                             let len = iv[1] - iv[0];
                             // floor keeps Σn ≤ max_coarse (+1 per interval shorter than a step).
-                            let n = ((len / step).floor() as usize).max(1);
+                            let n = ((len / step) as usize).max(1); // truncation = floor (len ≥ 0)
                             for j in 0..n {
                                 buf.t.push(iv[0] + len * j as f32 / n as f32);
                                 buf.flags.push(true);
