@@ -121,6 +121,44 @@ pub fn acc_weight_backward<T: Scalar>(offsets: &[u32], d_acc: &[T], d_weight: &m
     }
 }
 
+/// Composites a per-ray background radiance b behind the samples:
+/// C += b·(1 − Σw) (the "+ background" of SPEC §2; §6 for captures
+/// without masks).
+pub fn add_background<T: Scalar>(acc_weight: &[T], background: &[[T; 3]], colour: &mut [[T; 3]]) {
+    assert_eq!(acc_weight.len(), colour.len(), "add_background: ray count");
+    assert_eq!(background.len(), colour.len(), "add_background: ray count");
+    for ((c, b), &w) in colour.iter_mut().zip(background).zip(acc_weight) {
+        for i in 0..3 {
+            c[i] += b[i] * (T::of(1.0) - w);
+        }
+    }
+}
+
+/// Backward of [`add_background`]: ADDS −∂L/∂C·b into `d_acc_weight`
+/// (per ray ∂L/∂(Σw), to pass to [`crate::neus::NeusWeights::backward`])
+/// and ∂L/∂b = ∂L/∂C·(1 − Σw) into `d_background`.
+pub fn add_background_backward<T: Scalar>(
+    acc_weight: &[T],
+    background: &[[T; 3]],
+    d_colour: &[[T; 3]],
+    d_acc_weight: &mut [T],
+    d_background: Option<&mut [[T; 3]]>,
+) {
+    let n = acc_weight.len();
+    assert!(background.len() == n && d_colour.len() == n && d_acc_weight.len() == n);
+    for r in 0..n {
+        d_acc_weight[r] += -dot3(d_colour[r], background[r]);
+    }
+    if let Some(db) = d_background {
+        assert_eq!(db.len(), n, "add_background_backward: d_background length");
+        for r in 0..n {
+            for i in 0..3 {
+                db[r][i] += d_colour[r][i] * (T::of(1.0) - acc_weight[r]);
+            }
+        }
+    }
+}
+
 /// Per-ray maps for evaluation and previews.
 #[derive(Clone, Debug, Default)]
 pub struct RayMaps {

@@ -97,7 +97,10 @@ pub mod real;
 pub mod sampler;
 pub mod sh;
 
-pub use composite::{RayMaps, acc_weight_backward, composite, composite_backward, ray_maps};
+pub use composite::{
+    RayMaps, acc_weight_backward, add_background, add_background_backward, composite,
+    composite_backward, ray_maps,
+};
 pub use error::RenderError;
 pub use flash::{FlashInputs, flash_backward, flash_forward, gain};
 pub use neus::{NeusInputs, NeusSettings, NeusWeights, cos_anneal_ratio, sharpness};

@@ -4,7 +4,9 @@
 mod common;
 
 use common::TestRng;
-use wildlight_render::composite::{composite, composite_backward};
+use wildlight_render::composite::{
+    add_background, add_background_backward, composite, composite_backward,
+};
 use wildlight_render::neus::{NeusInputs, NeusSettings, NeusWeights, sharpness};
 
 struct Problem {
@@ -19,6 +21,8 @@ struct Problem {
     u: Vec<[f64; 3]>,
     beta: Vec<f64>,
     eta: Vec<f64>,
+    /// Per-ray background radiance composited behind the samples.
+    background: Vec<[f64; 3]>,
 }
 
 fn problem(seed: u64, counts: &[u32]) -> Problem {
@@ -80,6 +84,10 @@ fn problem(seed: u64, counts: &[u32]) -> Problem {
         .collect();
     let beta = counts.iter().map(|_| rng.uniform(-1.0, 1.0)).collect();
     let eta = (0..n).map(|_| rng.uniform(-0.5, 0.5)).collect();
+    let background = counts
+        .iter()
+        .map(|_| [rng.next_f64(), rng.next_f64(), rng.next_f64()])
+        .collect();
     Problem {
         offsets,
         dirs,
@@ -91,6 +99,7 @@ fn problem(seed: u64, counts: &[u32]) -> Problem {
         u,
         beta,
         eta,
+        background,
     }
 }
 
@@ -106,6 +115,7 @@ fn loss(p: &Problem, settings: &NeusSettings) -> f64 {
     w.forward(&inputs, p.v, settings);
     let mut c = vec![[0.0; 3]; p.dirs.len()];
     composite(&p.offsets, &w.weight, &p.colour, &mut c);
+    add_background(&w.acc_weight, &p.background, &mut c);
     let mut l = 0.0;
     for r in 0..p.dirs.len() {
         l += (0..3).map(|i| p.u[r][i] * c[r][i]).sum::<f64>() + p.beta[r] * w.acc_weight[r];
@@ -117,6 +127,7 @@ struct Grads {
     sdf: Vec<f64>,
     grad: Vec<[f64; 3]>,
     colour: Vec<[f64; 3]>,
+    background: Vec<[f64; 3]>,
     v: f64,
 }
 
@@ -141,6 +152,15 @@ fn analytic(p: &Problem, settings: &NeusSettings) -> Grads {
         &mut d_w,
         Some(&mut d_colour),
     );
+    let mut d_acc = p.beta.clone();
+    let mut d_background = vec![[0.0; 3]; p.dirs.len()];
+    add_background_backward(
+        &w.acc_weight,
+        &p.background,
+        &p.u,
+        &mut d_acc,
+        Some(&mut d_background),
+    );
     let mut d_sdf = vec![0.0; n];
     let mut d_grad = vec![[0.0; 3]; n];
     let d_v = w.backward(
@@ -148,7 +168,7 @@ fn analytic(p: &Problem, settings: &NeusSettings) -> Grads {
         p.v,
         settings,
         &d_w,
-        Some(&p.beta),
+        Some(&d_acc),
         &mut d_sdf,
         &mut d_grad,
     );
@@ -156,6 +176,7 @@ fn analytic(p: &Problem, settings: &NeusSettings) -> Grads {
         sdf: d_sdf,
         grad: d_grad,
         colour: d_colour,
+        background: d_background,
         v: d_v,
     }
 }
@@ -203,6 +224,15 @@ fn fd_check_all(seed: u64, ratio: f64) {
         }
     }
     check("d v", g.v, fd(&|q, e| q.v += e));
+    for r in 0..p.dirs.len() {
+        for i in 0..3 {
+            check(
+                &format!("d background[{r}][{i}]"),
+                g.background[r][i],
+                fd(&|q, e| q.background[r][i] += e),
+            );
+        }
+    }
     // The check must not pass vacuously.
     assert!(
         nonzero > p.sdf.len() / 2,

@@ -85,7 +85,7 @@ fn fast_sampler_matches_dense_sampling() {
         dirs: &dirs,
     };
     let mut worst = (0.0f64, 0.0f64);
-    for &s in &[500.0f64, 2000.0] {
+    for &s in &[60.0f64, 500.0, 2000.0] {
         let v = s.ln() / 10.0;
         let mut grid = OccupancyGrid::new(OccupancySettings::default()).unwrap();
         grid.refresh(torus_sdf(torus), s as f32, RefreshMode::Full);
