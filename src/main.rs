@@ -6,6 +6,7 @@
 use clap::{Parser, Subcommand};
 
 mod cli;
+mod plot;
 
 /// Inverse rendering with a flashlight: shape and materials from
 /// flash / no-flash photographs with known camera poses.
