@@ -79,7 +79,7 @@ fn render(
 #[test]
 fn fast_sampler_matches_dense_sampling() {
     let torus = Torus::standard();
-    let (origins, dirs) = camera_rays([0.4, 1.2, 2.3], 32, 32, 0.3);
+    let (origins, dirs) = camera_rays([0.4, 1.2, 2.3], 24, 24, 0.3);
     let rays = Rays {
         origins: &origins,
         dirs: &dirs,
@@ -140,12 +140,12 @@ fn fast_sampler_matches_dense_sampling() {
              {per_ray:.1} samples/ray, {hits} hits"
         );
         assert!(
-            hits > 150 && hits < 800,
+            hits > 80 && hits < 450,
             "the torus should cover part of the image: {hits}"
         );
-        // Stated tolerance (measured: max |ΔC| ≈ 1.1e-3, mean ≈ 1e-5,
-        // max |ΔΣw| ≈ 2.4e-3): colour within 3e-3 everywhere and 1e-4 on
-        // average, Σw within 5e-3, silhouette rays included.
+        // Stated tolerance (measured for s = 60, 500, 2000: max |ΔC| ≤ 7e-4,
+        // mean |ΔC| ≤ 2e-5, max |ΔΣw| ≤ 1.6e-3): colour within 3e-3 everywhere
+        // and 1e-4 on average, Σw within 5e-3, silhouette rays included.
         assert!(max_c < 3e-3 && mean_c < 1e-4 && max_w < 5e-3);
         assert!(per_ray < 100.0);
         worst = (worst.0.max(max_c), worst.1.max(max_w));
