@@ -11,7 +11,7 @@ use std::time::Instant;
 
 use wildlight_material::BrdfSettings;
 use wildlight_render::composite::{composite, composite_backward};
-use wildlight_render::flash::{FlashInputs, flash_backward, flash_forward};
+use wildlight_render::flash::{FlashCache, FlashInputs, flash_backward, flash_forward};
 use wildlight_render::neus::{NeusInputs, NeusSettings, NeusWeights};
 use wildlight_render::occupancy::{OccupancyGrid, OccupancySettings, RefreshMode};
 use wildlight_render::sampler::{CoarseSamples, RaySamples, Rays, Sampler, SamplerSettings};
@@ -182,7 +182,11 @@ fn main() {
     let mut c = vec![[0.0f32; 3]; n];
     let mut colour = vec![[0.0f32; 3]; n_rays];
     let t_neus = time(reps, || w.forward(&ninp, v, &settings));
-    let t_flash = time(reps, || flash_forward(&finp, 0.0, &brdf, &mut flash));
+    let t_flash_value = time(reps, || flash_forward(&finp, 0.0, &brdf, &mut flash, None));
+    let mut cache = FlashCache::new();
+    let t_flash = time(reps, || {
+        flash_forward(&finp, 0.0, &brdf, &mut flash, Some(&mut cache))
+    });
     for k in 0..n {
         c[k] = [
             ambient[k][0] + flash[k][0],
@@ -214,7 +218,15 @@ fn main() {
             &mut d_w,
             Some(&mut d_c),
         );
-        flash_backward(&finp, 0.0, &brdf, &d_c, &mut d_theta, &mut d_grad);
+        flash_backward(
+            &finp,
+            0.0,
+            &brdf,
+            Some(&cache),
+            &d_c,
+            &mut d_theta,
+            &mut d_grad,
+        );
         w.backward(
             &ninp,
             v,
@@ -228,10 +240,12 @@ fn main() {
     let ms = |t: f64| t * 1e3;
     let rate = |t: f64| n as f64 / t / 1e6;
     println!(
-        "kernels on {n} samples: NeuS forward {:.2} ms ({:.1} M samples/s), flash forward {:.2} ms ({:.1} M/s), \
-         composite {:.2} ms ({:.1} M/s), backward (composite + flash + NeuS) {:.2} ms ({:.1} M/s)",
+        "kernels on {n} samples: NeuS forward {:.2} ms ({:.1} M samples/s), flash forward value-only {:.2} ms, \
+         with Jacobian cache {:.2} ms ({:.1} M/s), composite {:.2} ms ({:.1} M/s), \
+         backward (composite + flash + NeuS) {:.2} ms ({:.1} M/s)",
         ms(t_neus),
         rate(t_neus),
+        ms(t_flash_value),
         ms(t_flash),
         rate(t_flash),
         ms(t_comp),

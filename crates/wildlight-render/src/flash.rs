@@ -11,7 +11,7 @@
 //! kernels take g and return ∂L/∂g.
 
 use rayon::prelude::*;
-use wildlight_material::{BrdfSettings, brdf};
+use wildlight_material::{BrdfJacobian, BrdfSettings, brdf};
 
 use crate::packing::{ray_chunks, split_mut, validate_offsets};
 use crate::real::{Scalar, dot3};
@@ -86,7 +86,43 @@ fn is_off<T: Scalar>(e: [T; 3]) -> bool {
     e[0] == z && e[1] == z && e[2] == z
 }
 
-/// Evaluates the flash radiance f per sample into `out` (SPEC §2).
+/// The BRDF Jacobians of a forward pass, kept for the backward pass so that
+/// it does not evaluate the BRDF again (132 bytes per sample in `f32`).
+#[derive(Clone, Debug, Default)]
+pub struct FlashCache<T> {
+    jacobians: Vec<BrdfJacobian<T>>,
+}
+
+impl<T: Scalar> FlashCache<T> {
+    /// An empty cache (grows on first use, then reused).
+    pub fn new() -> Self {
+        Self {
+            jacobians: Vec::new(),
+        }
+    }
+
+    /// Number of samples cached.
+    pub fn len(&self) -> usize {
+        self.jacobians.len()
+    }
+
+    /// Whether nothing is cached.
+    pub fn is_empty(&self) -> bool {
+        self.jacobians.is_empty()
+    }
+}
+
+fn zero_jacobian<T: Scalar>() -> BrdfJacobian<T> {
+    let z = T::of(0.0);
+    BrdfJacobian {
+        value: [z; 3],
+        d_params: [[z; 3]; 9],
+        d_cos: [z; 3],
+    }
+}
+
+/// Evaluates the flash radiance f per sample into `out` (SPEC §2). With a
+/// `cache`, also stores the BRDF Jacobians for [`flash_backward`].
 ///
 /// # Panics
 /// If the inputs are inconsistent or `out` has the wrong length.
@@ -95,41 +131,72 @@ pub fn flash_forward<T: Scalar>(
     log_gain: T,
     settings: &BrdfSettings,
     out: &mut [[T; 3]],
+    cache: Option<&mut FlashCache<T>>,
 ) {
     assert!(inputs.is_consistent(), "flash_forward: inconsistent inputs");
-    assert_eq!(out.len(), inputs.t.len(), "flash_forward: output length");
+    let n = inputs.t.len();
+    assert_eq!(out.len(), n, "flash_forward: output length");
     let gamma = gain(log_gain);
     let chunks = ray_chunks(inputs.offsets);
     let outs = split_mut(out, chunks.iter().map(|c| c.samples.clone()));
-    chunks.par_iter().zip(outs).for_each(|(chunk, out)| {
-        let base = chunk.samples.start;
-        for ray in chunk.rays.clone() {
-            let e = inputs.light_energy[ray];
-            let range = inputs.offsets[ray] as usize..inputs.offsets[ray + 1] as usize;
-            if is_off(e) {
-                for o in &mut out[range.start - base..range.end - base] {
-                    *o = [T::of(0.0); 3];
-                }
-                continue;
-            }
-            let dir = inputs.ray_dirs[ray];
-            for k in range {
-                let g = geometry(dir, inputs.sdf_grad[k], inputs.t[k], gamma);
-                out[k - base] = if g.cos > T::of(0.0) {
-                    let rho = brdf::eval(&inputs.params[k], g.cos, settings);
-                    let s = g.cos * g.falloff;
-                    [e[0] * rho[0] * s, e[1] * rho[1] * s, e[2] * rho[2] * s]
-                } else {
-                    [T::of(0.0); 3]
-                };
-            }
+    let caches: Vec<Option<&mut [BrdfJacobian<T>]>> = match cache {
+        Some(cache) => {
+            cache.jacobians.clear();
+            cache.jacobians.resize(n, zero_jacobian());
+            split_mut(
+                &mut cache.jacobians,
+                chunks.iter().map(|c| c.samples.clone()),
+            )
+            .into_iter()
+            .map(Some)
+            .collect()
         }
-    });
+        None => chunks.iter().map(|_| None).collect(),
+    };
+    chunks
+        .par_iter()
+        .zip(outs)
+        .zip(caches)
+        .for_each(|((chunk, out), mut cache)| {
+            let base = chunk.samples.start;
+            for ray in chunk.rays.clone() {
+                let e = inputs.light_energy[ray];
+                let range = inputs.offsets[ray] as usize..inputs.offsets[ray + 1] as usize;
+                if is_off(e) {
+                    for o in &mut out[range.start - base..range.end - base] {
+                        *o = [T::of(0.0); 3];
+                    }
+                    continue;
+                }
+                let dir = inputs.ray_dirs[ray];
+                for k in range {
+                    let g = geometry(dir, inputs.sdf_grad[k], inputs.t[k], gamma);
+                    out[k - base] = if g.cos > T::of(0.0) {
+                        let rho = match cache.as_deref_mut() {
+                            Some(c) => {
+                                let jac =
+                                    brdf::eval_with_jacobian(&inputs.params[k], g.cos, settings);
+                                c[k - base] = jac;
+                                jac.value
+                            }
+                            None => brdf::eval(&inputs.params[k], g.cos, settings),
+                        };
+                        let s = g.cos * g.falloff;
+                        [e[0] * rho[0] * s, e[1] * rho[1] * s, e[2] * rho[2] * s]
+                    } else {
+                        [T::of(0.0); 3]
+                    };
+                }
+            }
+        });
 }
 
 /// Backward of [`flash_forward`]: given ∂L/∂f per sample, ADDS ∂L/∂Θ into
 /// `d_params` and ∂L/∂∇φ (through the normalisation n = ∇φ/|∇φ|) into
 /// `d_sdf_grad`, and returns ∂L/∂g for the log-gain g (γ = exp(g)).
+///
+/// `cache`: the cache filled by the forward pass on the same inputs (the
+/// BRDF is then not evaluated again), or `None` to recompute.
 ///
 /// # Panics
 /// If the inputs are inconsistent or a buffer has the wrong length.
@@ -138,6 +205,7 @@ pub fn flash_backward<T: Scalar>(
     inputs: &FlashInputs<'_, T>,
     log_gain: T,
     settings: &BrdfSettings,
+    cache: Option<&FlashCache<T>>,
     d_out: &[[T; 3]],
     d_params: &mut [[T; 9]],
     d_sdf_grad: &mut [[T; 3]],
@@ -150,6 +218,9 @@ pub fn flash_backward<T: Scalar>(
     assert_eq!(d_out.len(), n, "flash_backward: d_out length");
     assert_eq!(d_params.len(), n, "flash_backward: d_params length");
     assert_eq!(d_sdf_grad.len(), n, "flash_backward: d_sdf_grad length");
+    if let Some(c) = cache {
+        assert_eq!(c.len(), n, "flash_backward: cache from another batch");
+    }
     let gamma = gain(log_gain);
     let chunks = ray_chunks(inputs.offsets);
     let dps = split_mut(d_params, chunks.iter().map(|c| c.samples.clone()));
@@ -172,7 +243,10 @@ pub fn flash_backward<T: Scalar>(
                     if g.cos <= T::of(0.0) {
                         continue;
                     }
-                    let jac = brdf::eval_with_jacobian(&inputs.params[k], g.cos, settings);
+                    let jac = match cache {
+                        Some(c) => c.jacobians[k],
+                        None => brdf::eval_with_jacobian(&inputs.params[k], g.cos, settings),
+                    };
                     let s = g.cos * g.falloff;
                     let df = d_out[k];
                     let mut d_rho = [T::of(0.0); 3];

@@ -63,7 +63,8 @@
 //!                          t: &samples.t, sdf_grad: &grad, params: &theta };
 //! let log_gain = 0.0f32;
 //! let mut flash = vec![[0.0f32; 3]; samples.len()];
-//! flash_forward(&finp, log_gain, &BrdfSettings::default(), &mut flash);
+//! let mut cache = FlashCache::new();
+//! flash_forward(&finp, log_gain, &BrdfSettings::default(), &mut flash, Some(&mut cache));
 //! let c: Vec<[f32; 3]> = ambient.iter().zip(&flash)
 //!     .map(|(a, f)| [a[0] + f[0], a[1] + f[1], a[2] + f[2]]).collect();
 //! let mut colour = vec![[0.0f32; 3]; rays.len()];
@@ -77,7 +78,7 @@
 //! let (mut d_w, mut d_c) = (vec![0.0f32; n], vec![[0.0f32; 3]; n]);
 //! composite_backward(&samples.offsets, &w.weight, &c, &d_colour, &mut d_w, Some(&mut d_c));
 //! let (mut d_theta, mut d_grad, mut d_phi) = (vec![[0.0f32; 9]; n], vec![[0.0f32; 3]; n], vec![0.0f32; n]);
-//! let d_log_gain = flash_backward(&finp, log_gain, &BrdfSettings::default(), &d_c,
+//! let d_log_gain = flash_backward(&finp, log_gain, &BrdfSettings::default(), Some(&cache), &d_c,
 //!                                 &mut d_theta, &mut d_grad);
 //! let d_v = w.backward(&ninp, v, &NeusSettings::default(), &d_w, Some(&d_acc),
 //!                      &mut d_phi, &mut d_grad);
@@ -102,7 +103,7 @@ pub use composite::{
     composite_backward, ray_maps,
 };
 pub use error::RenderError;
-pub use flash::{FlashInputs, flash_backward, flash_forward, gain};
+pub use flash::{FlashCache, FlashInputs, flash_backward, flash_forward, gain};
 pub use neus::{NeusInputs, NeusSettings, NeusWeights, cos_anneal_ratio, sharpness};
 pub use occupancy::{CellState, OccupancyGrid, OccupancySettings, RefreshMode};
 pub use packing::RAY_CHUNK;

@@ -13,7 +13,7 @@ mod common;
 use common::TestRng;
 use wildlight_material::BrdfSettings;
 use wildlight_render::composite::{composite, composite_backward};
-use wildlight_render::flash::{FlashInputs, flash_backward, flash_forward};
+use wildlight_render::flash::{FlashCache, FlashInputs, flash_backward, flash_forward};
 use wildlight_render::neus::{NeusInputs, NeusSettings, NeusWeights};
 use wildlight_render::occupancy::{OccupancyGrid, OccupancySettings, RefreshMode};
 use wildlight_render::sampler::{CoarseSamples, RaySamples, Rays, Sampler, SamplerSettings};
@@ -98,7 +98,15 @@ fn eval_field(scene: &Scene, p: &[f64; N_PARAMS]) -> Eval {
     e
 }
 
-fn forward(scene: &Scene, p: &[f64; N_PARAMS]) -> (Forward, Eval, NeusWeights<f64>, Vec<[f64; 3]>) {
+type ForwardState = (
+    Forward,
+    Eval,
+    NeusWeights<f64>,
+    Vec<[f64; 3]>,
+    FlashCache<f64>,
+);
+
+fn forward(scene: &Scene, p: &[f64; N_PARAMS]) -> ForwardState {
     let e = eval_field(scene, p);
     let delta: Vec<f64> = scene.samples.delta.iter().map(|&x| f64::from(x)).collect();
     let t: Vec<f64> = scene.samples.t.iter().map(|&x| f64::from(x)).collect();
@@ -121,7 +129,14 @@ fn forward(scene: &Scene, p: &[f64; N_PARAMS]) -> (Forward, Eval, NeusWeights<f6
         params: &e.theta,
     };
     let mut flash = vec![[0.0; 3]; t.len()];
-    flash_forward(&finp, p[G], &BrdfSettings::default(), &mut flash);
+    let mut cache = FlashCache::new();
+    flash_forward(
+        &finp,
+        p[G],
+        &BrdfSettings::default(),
+        &mut flash,
+        Some(&mut cache),
+    );
     let c: Vec<[f64; 3]> = e
         .ambient
         .iter()
@@ -131,7 +146,7 @@ fn forward(scene: &Scene, p: &[f64; N_PARAMS]) -> (Forward, Eval, NeusWeights<f6
     let mut colour = vec![[0.0; 3]; scene.dirs.len()];
     composite(offsets, &w.weight, &c, &mut colour);
     let acc = w.acc_weight.clone();
-    (Forward { colour, acc }, e, w, c)
+    (Forward { colour, acc }, e, w, c, cache)
 }
 
 const MASK_WEIGHT: f64 = 0.7;
@@ -149,7 +164,7 @@ fn loss(scene: &Scene, p: &[f64; N_PARAMS]) -> f64 {
 }
 
 fn analytic_grad(scene: &Scene, p: &[f64; N_PARAMS]) -> [f64; N_PARAMS] {
-    let (f, e, w, c) = forward(scene, p);
+    let (f, e, w, c, cache) = forward(scene, p);
     let offsets = &scene.samples.offsets;
     let n = e.sdf.len();
     let n_rays = scene.dirs.len();
@@ -179,6 +194,7 @@ fn analytic_grad(scene: &Scene, p: &[f64; N_PARAMS]) -> [f64; N_PARAMS] {
         &finp,
         p[G],
         &BrdfSettings::default(),
+        Some(&cache),
         &d_c,
         &mut d_theta,
         &mut d_grad,

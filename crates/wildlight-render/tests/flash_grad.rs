@@ -6,7 +6,7 @@ mod common;
 
 use common::TestRng;
 use wildlight_material::{BrdfSettings, brdf};
-use wildlight_render::flash::{FlashInputs, flash_backward, flash_forward, gain};
+use wildlight_render::flash::{FlashCache, FlashInputs, flash_backward, flash_forward, gain};
 
 struct Problem {
     offsets: Vec<u32>,
@@ -107,7 +107,7 @@ fn inputs(p: &Problem) -> FlashInputs<'_, f64> {
 
 fn loss(p: &Problem, settings: &BrdfSettings) -> f64 {
     let mut f = vec![[0.0; 3]; p.t.len()];
-    flash_forward(&inputs(p), p.log_gain, settings, &mut f);
+    flash_forward(&inputs(p), p.log_gain, settings, &mut f, None);
     f.iter()
         .zip(&p.u)
         .map(|(a, b)| a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
@@ -121,7 +121,7 @@ fn flash_value_matches_spec_formula_with_positions() {
     let p = problem(3);
     let settings = BrdfSettings::default();
     let mut f = vec![[0.0; 3]; p.t.len()];
-    flash_forward(&inputs(&p), p.log_gain, &settings, &mut f);
+    flash_forward(&inputs(&p), p.log_gain, &settings, &mut f, None);
     let gamma = p.log_gain.exp();
     let mut lit = 0;
     for r in 0..p.dirs.len() {
@@ -161,10 +161,30 @@ fn flash_backward_matches_finite_differences() {
         &inputs(&p),
         p.log_gain,
         &settings,
+        None,
         &p.u,
         &mut d_params,
         &mut d_grad,
     );
+    // The cached path gives the same gradients, bit for bit.
+    let mut cache = FlashCache::new();
+    let mut f = vec![[0.0; 3]; n];
+    flash_forward(&inputs(&p), p.log_gain, &settings, &mut f, Some(&mut cache));
+    let mut f_plain = vec![[0.0; 3]; n];
+    flash_forward(&inputs(&p), p.log_gain, &settings, &mut f_plain, None);
+    assert_eq!(f, f_plain);
+    let mut d_params_c = vec![[0.0; 9]; n];
+    let mut d_grad_c = vec![[0.0; 3]; n];
+    let d_g_c = flash_backward(
+        &inputs(&p),
+        p.log_gain,
+        &settings,
+        Some(&cache),
+        &p.u,
+        &mut d_params_c,
+        &mut d_grad_c,
+    );
+    assert_eq!((d_g_c, &d_params_c, &d_grad_c), (d_g, &d_params, &d_grad));
     let h = 1e-6;
     let fd = |f: &dyn Fn(&mut Problem, f64)| {
         let mut a = problem(9);
@@ -232,10 +252,10 @@ fn back_facing_samples_are_dark() {
         params: &params,
     };
     let mut f = vec![[1.0; 3]];
-    flash_forward(&inp, 0.0, &settings, &mut f);
+    flash_forward(&inp, 0.0, &settings, &mut f, None);
     assert_eq!(f[0], [0.0; 3]);
     let mut dp = vec![[0.0; 9]];
     let mut dg = vec![[0.0; 3]];
-    let d = flash_backward(&inp, 0.0, &settings, &[[1.0; 3]], &mut dp, &mut dg);
+    let d = flash_backward(&inp, 0.0, &settings, None, &[[1.0; 3]], &mut dp, &mut dg);
     assert_eq!((d, dp[0], dg[0]), (0.0, [0.0; 9], [0.0; 3]));
 }

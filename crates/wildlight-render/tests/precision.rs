@@ -7,7 +7,7 @@ mod common;
 use common::{Torus, camera_rays, colour};
 use wildlight_material::BrdfSettings;
 use wildlight_render::composite::{composite, composite_backward};
-use wildlight_render::flash::{FlashInputs, flash_backward, flash_forward};
+use wildlight_render::flash::{FlashCache, FlashInputs, flash_backward, flash_forward};
 use wildlight_render::neus::{NeusInputs, NeusSettings, NeusWeights};
 use wildlight_render::occupancy::{OccupancyGrid, OccupancySettings, RefreshMode};
 use wildlight_render::real::Scalar;
@@ -62,7 +62,8 @@ fn run<T: Scalar>(torus: Torus, dirs: &[[f32; 3]], samples: &RaySamples, v: f64)
     };
     let mut flash = vec![[T::of(0.0); 3]; n];
     let brdf = BrdfSettings::default();
-    flash_forward(&finp, T::of(0.1), &brdf, &mut flash);
+    let mut cache = FlashCache::new();
+    flash_forward(&finp, T::of(0.1), &brdf, &mut flash, Some(&mut cache));
     for (ck, f) in c.iter_mut().zip(&flash) {
         for i in 0..3 {
             ck[i] += f[i];
@@ -77,7 +78,15 @@ fn run<T: Scalar>(torus: Torus, dirs: &[[f32; 3]], samples: &RaySamples, v: f64)
     composite_backward(offsets, &w.weight, &c, &d_col, &mut d_w, Some(&mut d_c));
     let mut d_theta = vec![[T::of(0.0); 9]; n];
     let mut d_grad = vec![[T::of(0.0); 3]; n];
-    let d_gain = flash_backward(&finp, T::of(0.1), &brdf, &d_c, &mut d_theta, &mut d_grad);
+    let d_gain = flash_backward(
+        &finp,
+        T::of(0.1),
+        &brdf,
+        Some(&cache),
+        &d_c,
+        &mut d_theta,
+        &mut d_grad,
+    );
     let mut d_sdf = vec![T::of(0.0); n];
     let d_v = w.backward(
         &ninp,

@@ -65,7 +65,7 @@ fn render(
         params: &params,
     };
     let mut flash = vec![[0.0; 3]; n];
-    flash_forward(&flash_in, 0.0, &BrdfSettings::default(), &mut flash);
+    flash_forward(&flash_in, 0.0, &BrdfSettings::default(), &mut flash, None);
     let c: Vec<[f64; 3]> = ambient
         .iter()
         .zip(&flash)
