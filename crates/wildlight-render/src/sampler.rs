@@ -329,7 +329,7 @@ impl Sampler {
             .par_iter_mut()
             .enumerate()
             .for_each(|(ci, buf)| {
-                // Per-section scratch: start, length, coarse weight.
+                // Per-section scratch: start, end, coarse weight.
                 let mut sections: Vec<(f32, f32, f32)> = Vec::new();
                 let mut fine: Vec<f32> = Vec::new();
                 for ray in ci * RAY_CHUNK..((ci + 1) * RAY_CHUNK).min(n_rays) {
@@ -359,7 +359,7 @@ impl Sampler {
                         let eps = ALPHA_EPS as f32;
                         let alpha = ((p - n + eps) / (p + eps)).clamp(0.0, 1.0);
                         let alpha = if alpha.is_finite() { alpha } else { 1.0 };
-                        sections.push((t0, len, trans * alpha + 1e-5));
+                        sections.push((t0, t1, trans * alpha + 1e-5));
                         trans *= 1.0 - alpha;
                     }
                     // Inverse-CDF importance samples (increasing in t).
@@ -383,15 +383,14 @@ impl Sampler {
                                 cdf_lo += sections[j].2;
                                 j += 1;
                             }
-                            let (t0, len, w) = sections[j];
+                            let (t0, t1, w) = sections[j];
                             let frac = ((u - cdf_lo) / w).clamp(0.0, 1.0);
-                            fine.push(t0 + frac * len);
+                            fine.push(t0 + frac * (t1 - t0));
                         }
                     }
                     // Split the coarse sections at the fine points.
                     let mut fi = 0usize;
-                    for &(t0, len, _) in &sections {
-                        let t_end = t0 + len;
+                    for &(t0, t_end, _) in &sections {
                         let mut a = t0;
                         while fi < fine.len() && fine[fi] <= t_end {
                             let b = fine[fi].max(a);
