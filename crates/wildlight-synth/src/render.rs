@@ -103,9 +103,10 @@ impl RenderScene {
         Some(SurfacePoint { t: hit.t, position, normal, geometric_normal })
     }
 
-    /// Whether the segment from `origin` along unit `dir` hits anything.
-    pub fn occluded(&self, origin: DVec3, dir: DVec3) -> bool {
-        self.bvh.occluded(origin, dir, 0.0, f64::INFINITY)
+    /// Whether the ray from `origin` along unit `dir` hits anything with
+    /// t < `t_max`.
+    pub fn occluded(&self, origin: DVec3, dir: DVec3, t_max: f64) -> bool {
+        self.bvh.occluded(origin, dir, 0.0, t_max)
     }
 }
 
@@ -210,7 +211,7 @@ fn ambient(
         }
         // balance heuristic over both strategies (multi-sample MIS)
         let pdf_sum = n_env * env.pdf(l) + n_brdf * mix.pdf(n, v, l);
-        if !(pdf_sum > 0.0) || scene.occluded(origin, l) {
+        if !(pdf_sum > 0.0) || scene.occluded(origin, l, f64::INFINITY) {
             continue;
         }
         sum += value / pdf_sum;
