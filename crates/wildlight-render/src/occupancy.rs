@@ -16,10 +16,11 @@
 //!
 //! Cells entirely outside the unit sphere are never evaluated (rays are
 //! clipped to the sphere). The grid is refreshed from a batched SDF closure,
-//! either fully or partially: a partial refresh re-measures every surface or
-//! inside cell plus a rotating 1/stride subset of the others (the SDF-grid
-//! analogue of Instant-NGP's decaying density-grid updates); the band's
-//! margin covers the motion of the surface between two visits.
+//! either fully or partially: a partial refresh re-measures every surface
+//! cell and its 6-neighbours plus a rotating 1/stride subset of all cells
+//! (the SDF-grid analogue of Instant-NGP's decaying density-grid updates),
+//! so the surface may move by about a cell (plus the band's margin) between
+//! two refreshes without being missed.
 
 use rayon::prelude::*;
 
@@ -65,7 +66,8 @@ impl Default for OccupancySettings {
 pub enum RefreshMode {
     /// Every cell that meets the unit sphere.
     Full,
-    /// Every surface or inside cell, plus the cells whose index ≡ round (mod stride).
+    /// Every surface cell and its 6-neighbours, plus the cells whose index ≡
+    /// round (mod stride).
     Partial {
         /// 1/stride of the empty cells is re-measured per refresh.
         stride: u32,
@@ -104,6 +106,7 @@ pub struct OccupancyGrid {
     round: u64,
     /// Scratch: cell indices and centres of a refresh.
     scratch_index: Vec<u32>,
+    scratch_mark: Vec<bool>,
     scratch_pos: Vec<[f32; 3]>,
     scratch_sdf: Vec<f32>,
 }
@@ -167,6 +170,7 @@ impl OccupancyGrid {
             band: f32::INFINITY,
             round: 0,
             scratch_index: Vec::new(),
+            scratch_mark: Vec::new(),
             scratch_pos: Vec::new(),
             scratch_sdf: Vec::new(),
         };
@@ -277,12 +281,38 @@ impl OccupancyGrid {
             RefreshMode::Partial { stride } => {
                 let stride = stride.max(1) as u64;
                 let phase = self.round % stride;
+                let r = self.settings.resolution;
+                // Surface cells and their 6-neighbours (the surface moves by
+                // less than a cell between refreshes), plus a rotating subset.
+                self.scratch_mark.clear();
+                self.scratch_mark.resize(n, false);
                 for i in 0..n {
-                    if !self.in_sphere[i] {
+                    if self.state(i) != CellState::Surface {
                         continue;
                     }
-                    let sampled = self.state(i) != CellState::Empty;
-                    if sampled || i as u64 % stride == phase {
+                    self.scratch_mark[i] = true;
+                    let (x, y, z) = (i % r, (i / r) % r, i / (r * r));
+                    if x > 0 {
+                        self.scratch_mark[i - 1] = true;
+                    }
+                    if x + 1 < r {
+                        self.scratch_mark[i + 1] = true;
+                    }
+                    if y > 0 {
+                        self.scratch_mark[i - r] = true;
+                    }
+                    if y + 1 < r {
+                        self.scratch_mark[i + r] = true;
+                    }
+                    if z > 0 {
+                        self.scratch_mark[i - r * r] = true;
+                    }
+                    if z + 1 < r {
+                        self.scratch_mark[i + r * r] = true;
+                    }
+                }
+                for i in 0..n {
+                    if self.in_sphere[i] && (self.scratch_mark[i] || i as u64 % stride == phase) {
                         self.scratch_index.push(i as u32);
                     }
                 }
