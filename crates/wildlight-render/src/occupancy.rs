@@ -286,10 +286,17 @@ impl OccupancyGrid {
                 // less than a cell between refreshes), plus a rotating subset.
                 self.scratch_mark.clear();
                 self.scratch_mark.resize(n, false);
-                for i in 0..n {
-                    if self.state(i) != CellState::Surface {
-                        continue;
-                    }
+                let surface_cells = self.surface.iter().enumerate().flat_map(|(w, &bits)| {
+                    let mut bits = bits;
+                    std::iter::from_fn(move || {
+                        (bits != 0).then(|| {
+                            let i = w * 64 + bits.trailing_zeros() as usize;
+                            bits &= bits - 1;
+                            i
+                        })
+                    })
+                });
+                for i in surface_cells {
                     self.scratch_mark[i] = true;
                     let (x, y, z) = (i % r, (i / r) % r, i / (r * r));
                     if x > 0 {
@@ -373,16 +380,13 @@ impl OccupancyGrid {
         let r = self.settings.resolution;
         let rb = r.div_ceil(BLOCK);
         self.block_sampled.iter_mut().for_each(|b| *b = false);
-        for z in 0..r {
-            for y in 0..r {
-                for x in 0..r {
-                    let i = x + r * (y + r * z);
-                    let (w, b) = (i / 64, 1u64 << (i % 64));
-                    if (self.surface[w] | self.inside[w]) & b != 0 {
-                        let bi = x / BLOCK + rb * (y / BLOCK + rb * (z / BLOCK));
-                        self.block_sampled[bi] = true;
-                    }
-                }
+        for (w, (&sw, &iw)) in self.surface.iter().zip(&self.inside).enumerate() {
+            let mut bits = sw | iw;
+            while bits != 0 {
+                let i = w * 64 + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let (x, y, z) = (i % r, (i / r) % r, i / (r * r));
+                self.block_sampled[x / BLOCK + rb * (y / BLOCK + rb * (z / BLOCK))] = true;
             }
         }
     }
