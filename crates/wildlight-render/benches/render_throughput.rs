@@ -105,10 +105,10 @@ fn main() {
             grid.refresh(torus_batch, s, RefreshMode::Full);
         });
         let t_part = time(reps.min(5), || {
-            grid.refresh(torus_batch, s, RefreshMode::Partial { stride: 8 });
+            grid.refresh(torus_batch, s, RefreshMode::Partial { stride: 16 });
         });
         let n_full = grid.refresh(torus_batch, s, RefreshMode::Full);
-        let n_part = grid.refresh(torus_batch, s, RefreshMode::Partial { stride: 8 });
+        let n_part = grid.refresh(torus_batch, s, RefreshMode::Partial { stride: 16 });
         let t_sdf = time(reps.min(5), || {
             let pts: Vec<[f32; 3]> = (0..n_full).map(|i| grid.cell_center(i)).collect();
             let mut out = vec![0.0; n_full];
@@ -116,7 +116,7 @@ fn main() {
         });
         println!(
             "grid {res}³: full refresh {:.1} ms ({n_full} cells, analytic SDF ≈ {:.1} ms of it), \
-             partial (stride 8) {:.1} ms ({n_part} cells), occupied {:.1}%",
+             partial (stride 16) {:.1} ms ({n_part} cells), occupied {:.1}%",
             t_full * 1e3,
             t_sdf * 1e3,
             t_part * 1e3,
