@@ -141,7 +141,8 @@ impl CoarseSamples {
 /// Settings of the fast sampler.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SamplerSettings {
-    /// Radius of the bounding sphere (1 in the normalized frame).
+    /// Radius of the bounding sphere (1 in the normalized frame; at most 1,
+    /// the occupancy grid covers [−1, 1]³).
     pub bound_radius: f32,
     /// Coarse sections per grid cell length.
     pub coarse_steps_per_cell: f32,
@@ -196,10 +197,10 @@ impl Sampler {
     /// A sampler with the given settings.
     pub fn new(settings: SamplerSettings) -> Result<Self, RenderError> {
         check(
-            settings.bound_radius.is_finite() && settings.bound_radius > 0.0,
+            settings.bound_radius > 0.0 && settings.bound_radius <= 1.0,
             "bound_radius",
             settings.bound_radius,
-            "must be finite and > 0",
+            "must be in (0, 1]: the occupancy grid covers the unit sphere's cube",
         )?;
         check(
             settings.coarse_steps_per_cell.is_finite() && settings.coarse_steps_per_cell > 0.0,

@@ -229,6 +229,32 @@ fn sections_are_contiguous_inside_the_sphere_and_respect_the_cap() {
 }
 
 #[test]
+fn invalid_sampler_settings_are_rejected() {
+    let bad = [
+        SamplerSettings {
+            bound_radius: 1.5,
+            ..Default::default()
+        },
+        SamplerSettings {
+            max_coarse: 0,
+            ..Default::default()
+        },
+        SamplerSettings {
+            min_transmittance: 1.0,
+            ..Default::default()
+        },
+        SamplerSettings {
+            coarse_steps_per_cell: f32::NAN,
+            ..Default::default()
+        },
+    ];
+    for b in bad {
+        assert!(Sampler::new(b).is_err(), "{b:?}");
+    }
+    assert!(Sampler::new(SamplerSettings::default()).is_ok());
+}
+
+#[test]
 fn sphere_chord_is_the_unit_sphere_chord() {
     let [near, far] = sphere_chord([0.0, 0.0, 3.0], [0.0, 0.0, -1.0], 1.0).unwrap();
     assert!((near - 2.0).abs() < 1e-6 && (far - 4.0).abs() < 1e-6);
