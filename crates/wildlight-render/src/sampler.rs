@@ -19,7 +19,9 @@
 //!    values (section ends estimated from the mid value and the steeper of
 //!    this and the previous section's slope, as NeuS's up-sampling does),
 //!    early termination once the coarse transmittance falls below
-//!    `min_transmittance`, then `n_fine` importance samples by inverse CDF
+//!    `min_transmittance`, coarse sections whose SDF is provably far from
+//!    the surface (s·φ > `skip_tail` over the whole section, with |∇φ| ≤ L)
+//!    left out, then `n_fine` importance samples by inverse CDF
 //!    of the coarse weights. The fine points split the coarse sections;
 //!    every piece becomes one output section.
 //!
@@ -153,6 +155,12 @@ pub struct SamplerSettings {
     pub n_fine: usize,
     /// Coarse sections after the coarse transmittance falls below this are dropped.
     pub min_transmittance: f32,
+    /// Assumed bound L on |∇φ|, for the lower bound of φ over a section.
+    pub lipschitz: f32,
+    /// Coarse sections where s·φ > `skip_tail` everywhere (by the bound) are
+    /// left out of the final samples (NeuS alpha < ≈ e^(−skip_tail) there);
+    /// 0 keeps every section.
+    pub skip_tail: f32,
 }
 
 impl Default for SamplerSettings {
@@ -163,6 +171,8 @@ impl Default for SamplerSettings {
             max_coarse: 64,
             n_fine: 32,
             min_transmittance: 1e-4,
+            lipschitz: 1.5,
+            skip_tail: 10.0,
         }
     }
 }
@@ -219,6 +229,18 @@ impl Sampler {
             "min_transmittance",
             settings.min_transmittance,
             "must be in [0, 1)",
+        )?;
+        check(
+            settings.lipschitz.is_finite() && settings.lipschitz >= 1.0,
+            "lipschitz",
+            settings.lipschitz,
+            "must be finite and ≥ 1",
+        )?;
+        check(
+            settings.skip_tail.is_finite() && settings.skip_tail >= 0.0,
+            "skip_tail",
+            settings.skip_tail,
+            "must be finite and ≥ 0",
         )?;
         Ok(Self {
             settings,
@@ -360,7 +382,14 @@ impl Sampler {
                         let eps = ALPHA_EPS as f32;
                         let alpha = ((p - n + eps) / (p + eps)).clamp(0.0, 1.0);
                         let alpha = if alpha.is_finite() { alpha } else { 1.0 };
-                        sections.push((t0, t1, trans * alpha + 1e-5));
+                        // Lower bound of φ over the section (|∇φ| ≤ L): where
+                        // s·φ exceeds the tail everywhere, NeuS alpha is
+                        // negligible and the section is left out.
+                        let phi_lo = 0.5 * (f0 + f1 - st.lipschitz * len);
+                        let skip = st.skip_tail > 0.0 && s * phi_lo > st.skip_tail;
+                        if !skip {
+                            sections.push((t0, t1, trans * alpha + 1e-5));
+                        }
                         trans *= 1.0 - alpha;
                     }
                     // Inverse-CDF importance samples (increasing in t).
