@@ -169,7 +169,7 @@ impl Default for SamplerSettings {
             bound_radius: 1.0,
             coarse_steps_per_cell: 2.0,
             max_coarse: 64,
-            n_fine: 32,
+            n_fine: 16,
             min_transmittance: 1e-4,
             lipschitz: 1.5,
             skip_tail: 10.0,
