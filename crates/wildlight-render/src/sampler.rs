@@ -25,12 +25,12 @@
 //!    of the coarse weights. The fine points split the coarse sections;
 //!    every piece becomes one output section.
 //!
-//! Sections only exist inside sampled intervals: the skipped stretches are
-//! where the NeuS alpha is negligible (the grid's band), so leaving them out
-//! changes the transmittance by a negligible factor. The sections inside an
-//! interval tile it without gaps, so the product of (1 − alpha) telescopes
-//! as in dense sampling and the fast sampler is unbiased up to quadrature
-//! error (tested against the dense sampler).
+//! The stretches without sections are where the NeuS alpha is negligible
+//! (outside the grid's band, or s·φ > `skip_tail` by the Lipschitz bound),
+//! so leaving them out changes the transmittance by a negligible factor.
+//! Everywhere else the sections tile the ray without gaps, so the product
+//! of (1 − alpha) telescopes as in dense sampling and the fast sampler is
+//! unbiased up to quadrature error (tested against the dense sampler).
 
 use rayon::prelude::*;
 
