@@ -8,6 +8,9 @@ pub enum EvalError {
     /// A mesh could not be read.
     #[error(transparent)]
     Mesh(#[from] wildlight_mesh::MeshError),
+    /// A dataset, image, mask or camera file could not be read.
+    #[error(transparent)]
+    Data(#[from] wildlight_data::DataError),
     /// A mesh cannot be evaluated (no triangles, zero area, nothing visible).
     #[error("{what}: {problem}")]
     UnusableMesh {

@@ -1,18 +1,30 @@
 //! Evaluation metrics of wildlight.
 //!
 //! - Geometry: the surface-to-surface distance of SPEC §7 (appendix eq. 16)
-//!   with adaptive stopping, optionally restricted to the surface the
-//!   capture's cameras see ([`surface_distance`], [`visibility`]).
-//! - Synthetic test meshes for tests and benchmarks ([`shapes`]).
+//!   with adaptive stopping ([`surface_distance`]), optionally restricted to
+//!   the surface the capture's cameras see ([`visibility`], [`cameras`]),
+//!   combined in [`mesh_eval`].
+//! - Images: PSNR and SSIM over masks ([`image_metrics`]) of rendered views
+//!   against a capture, by flash / no-flash / all views ([`image_eval`]).
+//! - Materials: base colour, roughness, metallic and normal errors against
+//!   a synthetic capture's ground-truth maps ([`material_eval`]).
+//! - Synthetic meshes for tests and benchmarks ([`shapes`]).
 
+pub mod cameras;
 mod error;
+pub mod image_eval;
+pub mod image_metrics;
+pub mod material_eval;
 pub mod mesh_eval;
+pub mod rendered_views;
 pub mod shapes;
 pub mod surface_distance;
 pub mod surface_sampler;
 pub mod visibility;
 
 pub use error::EvalError;
+pub use image_eval::{ImageEvaluation, evaluate_images};
+pub use material_eval::{MaterialEvaluation, Split, evaluate_materials};
 pub use mesh_eval::{MeshEvaluation, evaluate_meshes};
 pub use surface_distance::{SurfaceDistance, SurfaceDistanceOptions, surface_distance};
 pub use visibility::{Frustum, Viewpoint, restrict_to_visible, visible_triangles};

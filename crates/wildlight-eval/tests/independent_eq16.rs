@@ -4,6 +4,7 @@
 //! uniform points in a triangle (parallelogram folding).
 
 use glam::{DVec3, Mat4, Quat, Vec3};
+use rayon::prelude::*;
 use wildlight_eval::shapes::{icosphere, torus};
 use wildlight_eval::{SurfaceDistanceOptions, surface_distance};
 use wildlight_mesh::TriMesh;
@@ -84,12 +85,16 @@ fn brute_force_eq16(s1: &TriMesh, s2: &TriMesh, pairs: usize, seed: u64) -> (f64
     let a2: Vec<f64> = t2.iter().map(area).collect();
     let (total1, total2) = (a1.iter().sum(), a2.iter().sum());
     let mut rng = SplitMix64(seed);
-    let mut values: Vec<f64> = (0..pairs)
+    let points: Vec<(DVec3, DVec3)> = (0..pairs)
         .map(|_| {
             let x1 = uniform_point(&t1, &a1, total1, &mut rng);
             let x2 = uniform_point(&t2, &a2, total2, &mut rng);
-            0.5 * (surface_distance_brute(x1, &t2) + surface_distance_brute(x2, &t1))
+            (x1, x2)
         })
+        .collect();
+    let mut values: Vec<f64> = points
+        .par_iter()
+        .map(|&(x1, x2)| 0.5 * (surface_distance_brute(x1, &t2) + surface_distance_brute(x2, &t1)))
         .collect();
     values.sort_by(f64::total_cmp);
     let mean = values.iter().sum::<f64>() / pairs as f64;
