@@ -60,40 +60,88 @@ impl Activation {
 
     /// Applies the activation in place to every value of `z`.
     pub fn forward_in_place<T: Real>(self, z: &mut [T]) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the CPU supports the enabled features (checked just above).
+            unsafe { self.forward_avx2(z) };
+            return;
+        }
+        self.forward_generic(z)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn forward_avx2<T: Real>(self, z: &mut [T]) {
+        self.forward_generic(z)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn backward_avx2<T: Real>(self, a: &[T], delta: &mut [T]) {
+        self.backward_generic(a, delta)
+    }
+
+    #[inline(always)]
+    fn forward_generic<T: Real>(self, z: &mut [T]) {
+        // Plain loops (no closures), so they are compiled with the caller's
+        // target features and vectorise.
         match self {
             Activation::None => {}
-            Activation::Relu => z.iter_mut().for_each(|v| *v = Activation::Relu.apply(*v)),
+            Activation::Relu => {
+                for v in z.iter_mut() {
+                    *v = Activation::Relu.apply(*v);
+                }
+            }
             Activation::Softplus { beta } => {
                 let act = Activation::Softplus { beta };
-                z.iter_mut().for_each(|v| *v = act.apply(*v))
+                for v in z.iter_mut() {
+                    *v = act.apply(*v);
+                }
             }
-            Activation::Sigmoid => z
-                .iter_mut()
-                .for_each(|v| *v = Activation::Sigmoid.apply(*v)),
+            Activation::Sigmoid => {
+                for v in z.iter_mut() {
+                    *v = Activation::Sigmoid.apply(*v);
+                }
+            }
         }
     }
 
     /// Multiplies each upstream gradient `delta` (w.r.t. the outputs `a`) by `da/dz`.
     pub fn backward_in_place<T: Real>(self, a: &[T], delta: &mut [T]) {
         assert_eq!(a.len(), delta.len());
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the CPU supports the enabled features (checked just above).
+            unsafe { self.backward_avx2(a, delta) };
+            return;
+        }
+        self.backward_generic(a, delta)
+    }
+
+    #[inline(always)]
+    fn backward_generic<T: Real>(self, a: &[T], delta: &mut [T]) {
+        let n = a.len().min(delta.len());
+        let (a, delta) = (&a[..n], &mut delta[..n]);
         match self {
             Activation::None => {}
-            Activation::Relu => delta.iter_mut().zip(a).for_each(|(d, &a)| {
-                if a <= T::ZERO {
-                    *d = T::ZERO
+            Activation::Relu => {
+                for i in 0..n {
+                    delta[i] = if a[i] > T::ZERO { delta[i] } else { T::ZERO };
                 }
-            }),
+            }
             Activation::Softplus { beta } => {
                 let act = Activation::Softplus { beta };
-                delta
-                    .iter_mut()
-                    .zip(a)
-                    .for_each(|(d, &a)| *d *= act.derivative_from_output(a))
+                for i in 0..n {
+                    delta[i] *= act.derivative_from_output(a[i]);
+                }
             }
-            Activation::Sigmoid => delta
-                .iter_mut()
-                .zip(a)
-                .for_each(|(d, &a)| *d *= Activation::Sigmoid.derivative_from_output(a)),
+            Activation::Sigmoid => {
+                for i in 0..n {
+                    delta[i] *= Activation::Sigmoid.derivative_from_output(a[i]);
+                }
+            }
         }
     }
 

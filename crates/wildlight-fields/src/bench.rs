@@ -55,6 +55,12 @@ pub struct BenchReport {
     pub fwd_bwd_points_per_s: f64,
     /// Forward + backward with tetrahedral FD normals (5 evaluations per point), main points per second.
     pub fwd_bwd_normals_points_per_s: f64,
+    /// Forward points per second of process CPU time (all threads together):
+    /// a figure less sensitive to other processes on a shared machine.
+    pub fwd_points_per_cpu_s: f64,
+    /// Forward + backward points per second of process CPU time.
+    pub fwd_bwd_points_per_cpu_s: f64,
+    /// Component timings below are medians of wall time per batch.
     /// Encoding forward alone, seconds per batch.
     pub encoding_fwd_s: f64,
     /// MLP forward alone, seconds per batch.
@@ -124,17 +130,34 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-fn time<F: FnMut()>(reps: usize, mut f: F) -> f64 {
+/// CPU time consumed by the whole process (all threads), in seconds.
+fn process_cpu_time() -> f64 {
+    #[cfg(target_os = "linux")]
+    {
+        let mut ts = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
+        };
+        // SAFETY: clock_gettime writes into the valid timespec.
+        if unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) } == 0 {
+            return ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9;
+        }
+    }
+    0.0
+}
+
+/// Median wall time and median process CPU time of `reps` runs (after one warm-up run).
+fn time<F: FnMut()>(reps: usize, mut f: F) -> (f64, f64) {
     f(); // warm-up
-    median(
-        (0..reps.max(1))
-            .map(|_| {
-                let t = Instant::now();
-                f();
-                t.elapsed().as_secs_f64()
-            })
-            .collect(),
-    )
+    let (wall, cpu): (Vec<f64>, Vec<f64>) = (0..reps.max(1))
+        .map(|_| {
+            let c = process_cpu_time();
+            let t = Instant::now();
+            f();
+            (t.elapsed().as_secs_f64(), process_cpu_time() - c)
+        })
+        .unzip();
+    (median(wall), median(cpu))
 }
 
 /// Runs the benchmark on the current rayon pool.
@@ -177,7 +200,7 @@ pub fn run(config: &BenchConfig) -> Result<BenchReport, crate::FieldError> {
     let unit: Vec<[f32; 3]> = x.iter().map(|p| p.map(|v| (v + 1.0) * 0.5)).collect();
     let mut enc = vec![0.0f32; n * n_enc];
     let levels = grid.config().n_levels;
-    let t_enc_fwd = time(config.reps, || {
+    let (t_enc_fwd, _) = time(config.reps, || {
         enc.par_chunks_mut(CHUNK_ROWS * n_enc)
             .zip(unit.par_chunks(CHUNK_ROWS))
             .for_each(|(o, u)| grid.encode(u, o, n_enc, 0, levels));
@@ -185,7 +208,7 @@ pub fn run(config: &BenchConfig) -> Result<BenchReport, crate::FieldError> {
     let d_enc: Vec<f32> = (0..n * n_enc).map(|i| d_out[i % d_out.len()]).collect();
     let mut g_grid = crate::memory::huge_vec::<f32>(grid.n_params());
     let blocks: Vec<&[f32]> = d_enc.chunks(CHUNK_ROWS * n_enc).collect();
-    let t_enc_bwd = time(config.reps, || {
+    let (t_enc_bwd, _) = time(config.reps, || {
         g_grid.fill(0.0);
         grid.backward_params(&unit, &blocks, CHUNK_ROWS, n_enc, 0, levels, &mut g_grid);
     });
@@ -193,9 +216,9 @@ pub fn run(config: &BenchConfig) -> Result<BenchReport, crate::FieldError> {
     let n_in = mlp.config().n_input;
     let input: Vec<f32> = (0..n * n_in).map(|i| enc[i % enc.len()]).collect();
     let mut mctx = MlpContext::new();
-    let t_mlp_fwd = time(config.reps, || mlp.forward(&input, &mut mctx));
+    let (t_mlp_fwd, _) = time(config.reps, || mlp.forward(&input, &mut mctx));
     let mut g_mlp = vec![0.0f32; mlp.n_params()];
-    let t_mlp_bwd = time(config.reps, || {
+    let (t_mlp_bwd, _) = time(config.reps, || {
         mlp.backward(&mut mctx, &d_out, &mut g_mlp, None)
     });
 
@@ -204,9 +227,11 @@ pub fn run(config: &BenchConfig) -> Result<BenchReport, crate::FieldError> {
     Ok(BenchReport {
         config: config.clone(),
         threads: rayon::current_num_threads(),
-        fwd_points_per_s: n as f64 / t_fwd,
-        fwd_bwd_points_per_s: n as f64 / t_fwd_bwd,
-        fwd_bwd_normals_points_per_s: nn as f64 / t_normals,
+        fwd_points_per_s: n as f64 / t_fwd.0,
+        fwd_bwd_points_per_s: n as f64 / t_fwd_bwd.0,
+        fwd_bwd_normals_points_per_s: nn as f64 / t_normals.0,
+        fwd_points_per_cpu_s: n as f64 / t_fwd.1,
+        fwd_bwd_points_per_cpu_s: n as f64 / t_fwd_bwd.1,
         encoding_fwd_s: t_enc_fwd,
         mlp_fwd_s: t_mlp_fwd,
         encoding_bwd_s: t_enc_bwd,

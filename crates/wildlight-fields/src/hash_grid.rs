@@ -136,16 +136,90 @@ fn locate<T: Real>(level: &LevelInfo, x: [T; 3]) -> Cell<T> {
     }
 }
 
-#[inline(always)]
-fn corner_weights<T: Real>(frac: [T; 3]) -> [T; 8] {
-    let wx = [T::ONE - frac[0], frac[0]];
-    let wy = [T::ONE - frac[1], frac[1]];
-    let wz = [T::ONE - frac[2], frac[2]];
-    let mut w = [T::ZERO; 8];
-    for (c, wc) in w.iter_mut().enumerate() {
-        *wc = wx[c & 1] * wy[(c >> 1) & 1] * wz[(c >> 2) & 1];
+/// Cells of a block of up to [`BLOCK`] points in struct-of-arrays form, so that
+/// the arithmetic vectorises across points: `index[c][i]` and `weight[c][i]`
+/// are corner `c` of point `i`.
+struct BlockCells<T> {
+    index: [[u32; BLOCK]; 8],
+    weight: [[T; BLOCK]; 8],
+}
+
+impl<T: Real> BlockCells<T> {
+    fn new() -> Self {
+        BlockCells {
+            index: [[0; BLOCK]; 8],
+            weight: [[T::ZERO; BLOCK]; 8],
+        }
     }
-    w
+
+    /// Locates `xs` (≤ BLOCK points) in `level`; lanes past `xs.len()` hold point 0 of the cube.
+    #[inline(always)]
+    fn locate(&mut self, level: &LevelInfo, xs: &[[T; 3]]) {
+        let res = level.resolution;
+        let scale = T::from_u32(res);
+        let top = res - 1;
+        let mut soa = [[T::ZERO; BLOCK]; 3];
+        for (i, p) in xs.iter().enumerate() {
+            soa[0][i] = p[0];
+            soa[1][i] = p[1];
+            soa[2][i] = p[2];
+        }
+        let mut i0 = [[0u32; BLOCK]; 3];
+        let mut w0 = [[T::ZERO; BLOCK]; 3];
+        let mut w1 = [[T::ZERO; BLOCK]; 3];
+        for d in 0..3 {
+            for i in 0..BLOCK {
+                let xc = soa[d][i].max(T::ZERO).min(T::ONE);
+                let pos = xc * scale;
+                // pos ≥ 0, so truncation is the floor.
+                let fl = pos.to_u32().min(top);
+                let fr = pos - T::from_u32(fl);
+                i0[d][i] = fl;
+                w1[d][i] = fr;
+                w0[d][i] = T::ONE - fr;
+            }
+        }
+        for c in 0..8 {
+            let (a, b, e) = (c & 1, (c >> 1) & 1, (c >> 2) & 1);
+            for i in 0..BLOCK {
+                let wx = if a == 1 { w1[0][i] } else { w0[0][i] };
+                let wy = if b == 1 { w1[1][i] } else { w0[1][i] };
+                let wz = if e == 1 { w1[2][i] } else { w0[2][i] };
+                self.weight[c][i] = wx * wy * wz;
+            }
+        }
+        if level.dense {
+            let r = res + 1;
+            for c in 0..8 {
+                let off =
+                    (c & 1) as u32 + ((c >> 1) & 1) as u32 * r + ((c >> 2) & 1) as u32 * r * r;
+                for i in 0..BLOCK {
+                    self.index[c][i] = i0[0][i] + i0[1][i] * r + i0[2][i] * r * r + off;
+                }
+            }
+        } else {
+            let mask = (level.entries - 1) as u32;
+            for c in 0..8 {
+                let (a, b, e) = ((c & 1) as u32, ((c >> 1) & 1) as u32, ((c >> 2) & 1) as u32);
+                for i in 0..BLOCK {
+                    let hx = i0[0][i] + a;
+                    let hy = (i0[1][i] + b).wrapping_mul(PRIME_Y);
+                    let hz = (i0[2][i] + e).wrapping_mul(PRIME_Z);
+                    self.index[c][i] = (hx ^ hy ^ hz) & mask;
+                }
+            }
+        }
+    }
+
+    /// Prefetches the table entries of the first `n` points.
+    #[inline(always)]
+    fn prefetch<U>(&self, base: *const U, f: usize, n: usize) {
+        for c in 0..8 {
+            for i in 0..n {
+                prefetch(base.wrapping_add(self.index[c][i] as usize * f));
+            }
+        }
+    }
 }
 
 /// A multi-resolution hash encoding with its parameters.
@@ -276,8 +350,41 @@ impl<T: Real> HashGrid<T> {
         col: usize,
         active_levels: usize,
     ) {
-        let mut idx = [[0u32; 8]; BLOCK];
-        let mut wts = [[T::ZERO; 8]; BLOCK];
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the CPU supports the enabled features (checked just above).
+            unsafe { self.encode_f_avx2::<F>(x, out, stride, col, active_levels) };
+            return;
+        }
+        self.encode_f_generic::<F>(x, out, stride, col, active_levels)
+    }
+
+    /// The kernel compiled with AVX2 (same arithmetic, no FMA contraction, so
+    /// results equal the generic build's).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn encode_f_avx2<const F: usize>(
+        &self,
+        x: &[[T; 3]],
+        out: &mut [T],
+        stride: usize,
+        col: usize,
+        active_levels: usize,
+    ) {
+        self.encode_f_generic::<F>(x, out, stride, col, active_levels)
+    }
+
+    #[inline(always)]
+    fn encode_f_generic<const F: usize>(
+        &self,
+        x: &[[T; 3]],
+        out: &mut [T],
+        stride: usize,
+        col: usize,
+        active_levels: usize,
+    ) {
+        let mut cells = [BlockCells::new(), BlockCells::new()];
         for (l, level) in self.levels.iter().enumerate() {
             let c0 = col + l * F;
             if l >= active_levels {
@@ -287,27 +394,38 @@ impl<T: Real> HashGrid<T> {
                 continue;
             }
             let table = &self.params[level.param_offset..level.param_offset + level.entries * F];
-            for (b, xs) in x.chunks(BLOCK).enumerate() {
-                // Phase 1: cells, weights and prefetches of the whole block, so
-                // that the table misses of many points are in flight together.
-                for (i, &xp) in xs.iter().enumerate() {
-                    let cell = locate(level, xp);
-                    if !level.dense {
-                        for &e in &cell.index {
-                            prefetch(table.as_ptr().wrapping_add(e as usize * F));
-                        }
-                    }
-                    idx[i] = cell.index;
-                    wts[i] = corner_weights(cell.frac);
+            let n_blocks = x.len().div_ceil(BLOCK);
+            let block = |b: usize| &x[b * BLOCK..((b + 1) * BLOCK).min(x.len())];
+            // Software pipeline: block b+1 is located and its table lines
+            // prefetched before block b is gathered, so misses overlap work.
+            if n_blocks > 0 {
+                cells[0].locate(level, block(0));
+                if !level.dense {
+                    cells[0].prefetch(table.as_ptr(), F, block(0).len());
                 }
-                // Phase 2: gather and interpolate.
-                for i in 0..xs.len() {
+            }
+            for b in 0..n_blocks {
+                let (cur, next) = if b % 2 == 0 {
+                    let (a, c) = cells.split_at_mut(1);
+                    (&a[0], &mut c[0])
+                } else {
+                    let (a, c) = cells.split_at_mut(1);
+                    (&c[0], &mut a[0])
+                };
+                if b + 1 < n_blocks {
+                    next.locate(level, block(b + 1));
+                    if !level.dense {
+                        next.prefetch(table.as_ptr(), F, block(b + 1).len());
+                    }
+                }
+                for i in 0..block(b).len() {
                     let mut acc = [T::ZERO; F];
                     for c in 0..8 {
-                        let e = idx[i][c] as usize * F;
-                        let v = &table[e..e + F];
+                        let e = cur.index[c][i] as usize * F;
+                        let v: &[T; F] = table[e..e + F].try_into().expect("F values");
+                        let w = cur.weight[c][i];
                         for k in 0..F {
-                            acc[k] += wts[i][c] * v[k];
+                            acc[k] += w * v[k];
                         }
                     }
                     let o = (b * BLOCK + i) * stride + c0;
@@ -371,38 +489,85 @@ impl<T: Real> HashGrid<T> {
         col: usize,
         g: &mut [T],
     ) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the CPU supports the enabled features (checked just above).
+            unsafe {
+                self.backward_level_avx2::<F>(l, x, d_out_blocks, block_rows, stride, col, g)
+            };
+            return;
+        }
+        self.backward_level_generic::<F>(l, x, d_out_blocks, block_rows, stride, col, g)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    #[allow(clippy::too_many_arguments)]
+    unsafe fn backward_level_avx2<const F: usize>(
+        &self,
+        l: usize,
+        x: &[[T; 3]],
+        d_out_blocks: &[&[T]],
+        block_rows: usize,
+        stride: usize,
+        col: usize,
+        g: &mut [T],
+    ) {
+        self.backward_level_generic::<F>(l, x, d_out_blocks, block_rows, stride, col, g)
+    }
+
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn backward_level_generic<const F: usize>(
+        &self,
+        l: usize,
+        x: &[[T; 3]],
+        d_out_blocks: &[&[T]],
+        block_rows: usize,
+        stride: usize,
+        col: usize,
+        g: &mut [T],
+    ) {
         let level = &self.levels[l];
         let c0 = col + l * F;
-        let mut idx = [[0u32; 8]; BLOCK];
-        let mut wts = [[T::ZERO; 8]; BLOCK];
-        for (b, block) in d_out_blocks.iter().enumerate() {
-            let start = b * block_rows;
-            if start >= x.len() {
-                break;
+        let n = x.len();
+        let n_blocks = n.div_ceil(BLOCK);
+        let pts = |b: usize| &x[b * BLOCK..((b + 1) * BLOCK).min(n)];
+        let mut cells = [BlockCells::new(), BlockCells::new()];
+        if n_blocks > 0 {
+            cells[0].locate(level, pts(0));
+            if !level.dense {
+                cells[0].prefetch(g.as_ptr(), F, pts(0).len());
             }
-            let end = (start + block_rows).min(x.len());
-            for (s, xs) in x[start..end].chunks(BLOCK).enumerate() {
-                for (i, &xp) in xs.iter().enumerate() {
-                    let cell = locate(level, xp);
-                    if !level.dense {
-                        for &e in &cell.index {
-                            prefetch(g.as_ptr().wrapping_add(e as usize * F));
-                        }
-                    }
-                    idx[i] = cell.index;
-                    wts[i] = corner_weights(cell.frac);
+        }
+        for b in 0..n_blocks {
+            let (cur, next) = if b % 2 == 0 {
+                let (a, c) = cells.split_at_mut(1);
+                (&a[0], &mut c[0])
+            } else {
+                let (a, c) = cells.split_at_mut(1);
+                (&c[0], &mut a[0])
+            };
+            if b + 1 < n_blocks {
+                next.locate(level, pts(b + 1));
+                if !level.dense {
+                    next.prefetch(g.as_ptr(), F, pts(b + 1).len());
                 }
-                for i in 0..xs.len() {
-                    let r = s * BLOCK + i;
-                    let d: [T; F] = block[r * stride + c0..r * stride + c0 + F]
-                        .try_into()
-                        .expect("F features");
-                    for c in 0..8 {
-                        let e = idx[i][c] as usize * F;
-                        let gv = &mut g[e..e + F];
-                        for k in 0..F {
-                            gv[k] += wts[i][c] * d[k];
-                        }
+            }
+            for i in 0..pts(b).len() {
+                let p = b * BLOCK + i;
+                let blk = d_out_blocks[p / block_rows];
+                let r = p % block_rows;
+                let d: [T; F] = blk[r * stride + c0..r * stride + c0 + F]
+                    .try_into()
+                    .expect("F features");
+                for c in 0..8 {
+                    let e = cur.index[c][i] as usize * F;
+                    let w = cur.weight[c][i];
+                    let gv: &mut [T; F] = (&mut g[e..e + F]).try_into().expect("F values");
+                    for k in 0..F {
+                        gv[k] += w * d[k];
                     }
                 }
             }

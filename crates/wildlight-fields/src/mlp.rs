@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Rows per chunk: the unit of parallel work and of the deterministic reductions.
-pub const CHUNK_ROWS: usize = 1024;
+pub const CHUNK_ROWS: usize = 256;
 
 /// Shape and activations of an MLP.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

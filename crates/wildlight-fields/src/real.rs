@@ -55,9 +55,9 @@ pub trait Real:
     fn abs(self) -> Self {
         if self >= Self::ZERO { self } else { -self }
     }
-    /// Conversion to an index after `floor` (the value must be ≥ 0).
+    /// Truncation to an index (the value must be in `[0, 2^31)`).
     fn to_u32(self) -> u32;
-    /// Conversion from a small integer.
+    /// Conversion from an integer below 2^31.
     fn from_u32(v: u32) -> Self;
     /// Row-major general matrix product `C = alpha·A·B + beta·C` with explicit
     /// strides (see [`matrixmultiply::sgemm`]).
@@ -116,11 +116,11 @@ impl Real for f64 {
     }
     #[inline(always)]
     fn to_u32(self) -> u32 {
-        self as u32
+        self as i32 as u32
     }
     #[inline(always)]
     fn from_u32(v: u32) -> Self {
-        v as f64
+        v as i32 as f64
     }
     unsafe fn gemm_raw(
         m: usize,
@@ -181,11 +181,12 @@ impl Real for f32 {
     }
     #[inline(always)]
     fn to_u32(self) -> u32 {
-        self as u32
+        // Signed conversions vectorise (cvttps2dq); values are in [0, 2^31).
+        self as i32 as u32
     }
     #[inline(always)]
     fn from_u32(v: u32) -> Self {
-        v as f32
+        v as i32 as f32
     }
     unsafe fn gemm_raw(
         m: usize,
@@ -283,23 +284,42 @@ pub fn gemm<T: Real>(
     } else {
         (n as isize, 1)
     };
-    // SAFETY: the asserts above bound every strided access inside the slices.
-    unsafe {
-        T::gemm_raw(
-            m,
-            k,
-            n,
-            alpha,
-            a.as_ptr(),
-            rsa,
-            csa,
-            b.as_ptr(),
-            rsb,
-            csb,
-            beta,
-            c.as_mut_ptr(),
-            n as isize,
-            1,
-        )
+    // matrixmultiply's "threading" feature splits calls with m·k + k·n ≥ 2^15
+    // over its own threads; our callers are already parallel, so the product
+    // is cut into pieces below that size (the cut depends only on the shapes,
+    // so results stay deterministic).
+    const HALF_PIECE: usize = (1 << 14) - 1;
+    let k_piece = (HALF_PIECE / n.max(1)).clamp(1, k.max(1));
+    let mut k0 = 0;
+    while k0 < k.max(1) {
+        let kk = k_piece.min(k - k0.min(k));
+        let m_piece = (HALF_PIECE / kk.max(1)).max(1);
+        let beta_here = if k0 == 0 { beta } else { T::ONE };
+        let mut m0 = 0;
+        while m0 < m {
+            let mm = m_piece.min(m - m0);
+            // SAFETY: the asserts above bound every strided access inside the
+            // slices, and each piece is a sub-block of those extents.
+            unsafe {
+                T::gemm_raw(
+                    mm,
+                    kk,
+                    n,
+                    alpha,
+                    a.as_ptr().offset(m0 as isize * rsa + k0 as isize * csa),
+                    rsa,
+                    csa,
+                    b.as_ptr().offset(k0 as isize * rsb),
+                    rsb,
+                    csb,
+                    beta_here,
+                    c.as_mut_ptr().add(m0 * n),
+                    n as isize,
+                    1,
+                )
+            }
+            m0 += mm;
+        }
+        k0 += k_piece;
     }
 }
