@@ -67,6 +67,9 @@ pub struct BenchReport {
     pub mlp_fwd_s: f64,
     /// Encoding backward (table gradients) alone, seconds per batch.
     pub encoding_bwd_s: f64,
+    /// Encoding backward with the alternative per-thread-buffer scheme
+    /// (one table-sized buffer per thread, zeroed and reduced every call).
+    pub encoding_bwd_per_thread_buffers_s: f64,
     /// MLP backward alone, seconds per batch.
     pub mlp_bwd_s: f64,
     /// Share of encoding time in (encoding + MLP), forward + backward.
@@ -212,6 +215,23 @@ pub fn run(config: &BenchConfig) -> Result<BenchReport, crate::FieldError> {
         g_grid.fill(0.0);
         grid.backward_params(&unit, &blocks, CHUNK_ROWS, n_enc, 0, levels, &mut g_grid);
     });
+    let mut scratch = Vec::new();
+    let threads = rayon::current_num_threads();
+    let (t_enc_bwd_bufs, _) = time(config.reps, || {
+        g_grid.fill(0.0);
+        grid.backward_params_per_part_buffers(
+            &unit,
+            &blocks,
+            CHUNK_ROWS,
+            n_enc,
+            0,
+            levels,
+            threads,
+            &mut scratch,
+            &mut g_grid,
+        );
+    });
+    drop(scratch);
     let mlp: &Mlp<f32> = &field.field.mlp;
     let n_in = mlp.config().n_input;
     let input: Vec<f32> = (0..n * n_in).map(|i| enc[i % enc.len()]).collect();
@@ -235,6 +255,7 @@ pub fn run(config: &BenchConfig) -> Result<BenchReport, crate::FieldError> {
         encoding_fwd_s: t_enc_fwd,
         mlp_fwd_s: t_mlp_fwd,
         encoding_bwd_s: t_enc_bwd,
+        encoding_bwd_per_thread_buffers_s: t_enc_bwd_bufs,
         mlp_bwd_s: t_mlp_bwd,
         encoding_share: enc_t / (enc_t + mlp_t),
         mlp_share: mlp_t / (enc_t + mlp_t),

@@ -574,6 +574,65 @@ impl<T: Real> HashGrid<T> {
         }
     }
 
+    /// The alternative scheme, kept for the benchmark's comparison: the points
+    /// are cut into `parts` contiguous ranges, each range accumulates into its
+    /// own full-size buffer (`scratch`, resized to `parts` buffers), and the
+    /// buffers are added to `grad` in order. Deterministic for a fixed `parts`,
+    /// but it zeroes and reduces `parts` table-sized buffers per call, which
+    /// the level-parallel [`HashGrid::backward_params`] avoids.
+    #[allow(clippy::too_many_arguments)]
+    pub fn backward_params_per_part_buffers(
+        &self,
+        x: &[[T; 3]],
+        d_out_blocks: &[&[T]],
+        block_rows: usize,
+        stride: usize,
+        col: usize,
+        active_levels: usize,
+        parts: usize,
+        scratch: &mut Vec<Vec<T>>,
+        grad: &mut [T],
+    ) {
+        assert_eq!(grad.len(), self.params.len());
+        let parts = parts.max(1);
+        scratch.resize_with(parts, Vec::new);
+        let per = x.len().div_ceil(parts).div_ceil(block_rows) * block_rows;
+        let f = self.config.n_features;
+        scratch.par_iter_mut().enumerate().for_each(|(i, buf)| {
+            if buf.len() != self.params.len() {
+                *buf = huge_vec(self.params.len());
+            } else {
+                buf.fill(T::ZERO);
+            }
+            let start = (i * per).min(x.len());
+            let end = ((i + 1) * per).min(x.len());
+            let blocks = &d_out_blocks[start / block_rows..end.div_ceil(block_rows)];
+            let xs = &x[start..end];
+            let mut rest: &mut [T] = buf;
+            for (l, level) in self.levels.iter().enumerate() {
+                let (head, tail) = rest.split_at_mut(level.entries * f);
+                rest = tail;
+                if l >= active_levels {
+                    continue;
+                }
+                match f {
+                    1 => self.backward_level::<1>(l, xs, blocks, block_rows, stride, col, head),
+                    2 => self.backward_level::<2>(l, xs, blocks, block_rows, stride, col, head),
+                    4 => self.backward_level::<4>(l, xs, blocks, block_rows, stride, col, head),
+                    _ => self.backward_level::<8>(l, xs, blocks, block_rows, stride, col, head),
+                }
+            }
+        });
+        const RED: usize = 1 << 16;
+        grad.par_chunks_mut(RED).enumerate().for_each(|(c, g)| {
+            for buf in scratch.iter() {
+                for (gv, &b) in g.iter_mut().zip(&buf[c * RED..]) {
+                    *gv += b;
+                }
+            }
+        });
+    }
+
     /// Accumulates gradients w.r.t. the input points:
     /// `d_x[p] += (d out_p / d x_p)ᵀ · d_out_p` (rows as in [`HashGrid::encode`]).
     /// Coordinates outside `[0,1]` get no gradient (they are clamped).

@@ -472,3 +472,36 @@ fn fd_normals_approximate_the_analytic_gradient() {
         }
     }
 }
+
+#[test]
+fn per_part_buffer_backward_equals_level_parallel_backward() {
+    let mut r = rng(9);
+    let grid = HashGrid::<f64>::new(&small_grid(2), 3).unwrap();
+    let n = 300;
+    let x: Vec<[f64; 3]> = (0..n)
+        .map(|_| [r.random(), r.random(), r.random()])
+        .collect();
+    let no = grid.n_outputs();
+    let d_out = rand_vec(n * no, -1.0, 1.0, &mut r);
+    let blocks: Vec<&[f64]> = d_out.chunks(64 * no).collect();
+    let mut a = vec![0.0; grid.n_params()];
+    grid.backward_params(&x, &blocks, 64, no, 0, 4, &mut a);
+    for parts in [1, 2, 3] {
+        let mut b = vec![0.0; grid.n_params()];
+        let mut scratch = Vec::new();
+        grid.backward_params_per_part_buffers(
+            &x,
+            &blocks,
+            64,
+            no,
+            0,
+            4,
+            parts,
+            &mut scratch,
+            &mut b,
+        );
+        for (i, (u, v)) in a.iter().zip(&b).enumerate() {
+            assert!((u - v).abs() < 1e-12, "parts {parts} entry {i}: {u} vs {v}");
+        }
+    }
+}
