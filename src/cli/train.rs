@@ -1,10 +1,91 @@
-//! `wildlight train`.
+//! `wildlight train`: reconstruct shape, materials and flash gain from a capture.
+
+use anyhow::Context;
+use std::path::PathBuf;
+use wildlight_train::TrainConfig;
+use wildlight_train::config::parse_duration;
+use wildlight_train::run::{RunOptions, train};
 
 /// Options of `wildlight train`.
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+pub struct Args {
+    /// Capture folder (SPEC §5 layout). Not needed with --resume.
+    #[arg(long, value_name = "DIR", required_unless_present_any = ["resume", "print_config"])]
+    pub data: Option<PathBuf>,
+    /// Run folder: configuration, checkpoints, metrics and previews go here.
+    #[arg(long, value_name = "RUN", required_unless_present = "print_config")]
+    pub out: Option<PathBuf>,
+    /// TOML configuration; keys left out take their defaults (see --print-config).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Print the resolved configuration (defaults + --config + overrides) and exit.
+    #[arg(long)]
+    pub print_config: bool,
+    /// Optimisation steps [default: the configuration's `iters`, 4000].
+    #[arg(long, value_name = "N")]
+    pub iters: Option<u64>,
+    /// Stop after this much wall time, e.g. 90s, 30m, 1h30m (a checkpoint is written).
+    #[arg(long, value_name = "DURATION", value_parser = parse_duration)]
+    pub time_budget: Option<std::time::Duration>,
+    /// Seed of every random choice [default: the configuration's `seed`, 0].
+    #[arg(long, value_name = "S")]
+    pub seed: Option<u64>,
+    /// Continue the run in --out from its last checkpoint (with its own configuration;
+    /// --iters may raise the step count).
+    #[arg(long)]
+    pub resume: bool,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
 
 /// Runs `wildlight train`.
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`wildlight train` is not yet available in this version")
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let mut config = match &args.config {
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("cannot read the configuration {}", p.display()))?;
+            TrainConfig::from_toml(&text).with_context(|| format!("{}", p.display()))?
+        }
+        None => TrainConfig::default(),
+    };
+    if let Some(n) = args.iters {
+        config.iters = n;
+    }
+    if let Some(s) = args.seed {
+        config.seed = s;
+    }
+    config.validate().map_err(anyhow::Error::msg)?;
+    if args.print_config {
+        print!("{}", config.to_toml());
+        return Ok(());
+    }
+    let out = args.out.context("--out is required")?;
+    let summary = train(&RunOptions {
+        data: args.data,
+        out,
+        config,
+        time_budget: args.time_budget,
+        resume: args.resume,
+        progress: !args.quiet && std::io::IsTerminal::is_terminal(&std::io::stderr()),
+    })?;
+    let last = summary.last.as_ref();
+    eprintln!(
+        "trained {} steps in {:.1} s{}; run folder {}",
+        summary.steps,
+        summary.seconds,
+        last.map(|l| format!(
+            " (last batch: loss {:.4}, PSNR {:.2} dB, s {:.0}, gain {:.3})",
+            l.loss, l.psnr, l.s, l.gamma
+        ))
+        .unwrap_or_default(),
+        summary.run.display()
+    );
+    if summary.skipped_steps > 0 {
+        eprintln!(
+            "warning: {} steps were skipped because of non-finite values",
+            summary.skipped_steps
+        );
+    }
+    Ok(())
 }

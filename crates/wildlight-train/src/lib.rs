@@ -1,1 +1,27 @@
-//! (work in progress)
+//! Training the WildLight model (SPEC §2, §4): an SDF field, a material
+//! field and an ambient radiance field, rendered with NeuS and a physically
+//! modelled flash, fitted to flash and no-flash photographs.
+//!
+//! - [`config`]: every setting, with defaults, TOML in and out;
+//! - [`model`]: the fields and scalars, and their gradients;
+//! - [`rays`]: drawing training rays across all images;
+//! - [`pipeline`]: one differentiable pass over a batch of rays;
+//! - [`loss`]: the losses of SPEC §4;
+//! - [`trainer`]: the optimisation step, checkpoints;
+//! - [`render_view`]: rendering whole views and their maps;
+//! - [`preview`]: preview images;
+//! - [`run`]: the run folder and the training loop behind `wildlight train`.
+
+pub mod config;
+pub mod loss;
+pub mod model;
+pub mod pipeline;
+pub mod preview;
+pub mod rays;
+pub mod render_view;
+pub mod run;
+pub mod trainer;
+
+pub use config::TrainConfig;
+pub use model::Model;
+pub use trainer::{StepStats, Trainer};

@@ -1,0 +1,404 @@
+//! The training configuration: every setting with its documented default,
+//! read from TOML (`--config FILE`), printed by `--print-config`, and saved
+//! into each run folder so that a run can be resumed and re-rendered.
+
+use serde::{Deserialize, Serialize};
+use wildlight_fields::{Activation, HashGridConfig, SdfFieldConfig};
+use wildlight_material::BrdfSettings;
+
+/// Everything that defines a training run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TrainConfig {
+    /// Seed of every random choice (initialisation, rays, jitter).
+    pub seed: u64,
+    /// Optimisation steps (the learning-rate schedule spans them).
+    pub iters: u64,
+    /// Rays per step.
+    pub batch_rays: usize,
+    /// Share of the rays drawn from mask foreground pixels (the rest from all pixels).
+    pub foreground_fraction: f64,
+    /// Extra points drawn uniformly in the ball of radius 1.2 for the eikonal term.
+    pub eikonal_points: usize,
+    /// Loss weights and learning rates.
+    pub loss: LossConfig,
+    /// Optimiser settings.
+    pub optim: OptimConfig,
+    /// The fields.
+    pub model: ModelConfig,
+    /// Sampling along rays.
+    pub sampling: SamplingConfig,
+    /// Logging, previews and checkpoints.
+    pub output: OutputConfig,
+}
+
+impl Default for TrainConfig {
+    fn default() -> Self {
+        Self {
+            seed: 0,
+            iters: 4000,
+            batch_rays: 1024,
+            foreground_fraction: 0.8,
+            eikonal_points: 512,
+            loss: LossConfig::default(),
+            optim: OptimConfig::default(),
+            model: ModelConfig::default(),
+            sampling: SamplingConfig::default(),
+            output: OutputConfig::default(),
+        }
+    }
+}
+
+/// Weights of the terms of SPEC §4.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LossConfig {
+    /// L1 colour loss weight.
+    pub color: f64,
+    /// Eikonal weight (SPEC §4: 0.1).
+    pub eikonal: f64,
+    /// Mask binary cross-entropy weight (SPEC §4: 1.0).
+    pub mask: f64,
+}
+
+impl Default for LossConfig {
+    fn default() -> Self {
+        Self {
+            color: 1.0,
+            eikonal: 0.1,
+            mask: 1.0,
+        }
+    }
+}
+
+/// Adam settings per parameter group and the schedule.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct OptimConfig {
+    /// Learning rate of the hash tables.
+    pub lr_grid: f64,
+    /// Learning rate of the MLPs.
+    pub lr_mlp: f64,
+    /// Learning rate of the NeuS sharpness parameter v (s = exp(10 v)).
+    pub lr_sharpness: f64,
+    /// Learning rate of the log flash gain.
+    pub lr_gain: f64,
+    /// Linear warm-up steps.
+    pub warmup_steps: u64,
+    /// Learning-rate factor reached at the last step (cosine decay).
+    pub final_lr_factor: f64,
+    /// Steps over which the NeuS cos-annealing ratio rises from 0 to 1.
+    pub cos_anneal_steps: u64,
+    /// Hash levels active at the start (coarse-to-fine; 0 = all from the start).
+    pub c2f_start_levels: usize,
+    /// Steps between activating one more level.
+    pub c2f_steps_per_level: u64,
+}
+
+impl Default for OptimConfig {
+    fn default() -> Self {
+        Self {
+            lr_grid: 1e-2,
+            lr_mlp: 1e-3,
+            lr_sharpness: 1e-3,
+            lr_gain: 1e-2,
+            warmup_steps: 100,
+            final_lr_factor: 0.05,
+            cos_anneal_steps: 500,
+            c2f_start_levels: 4,
+            c2f_steps_per_level: 100,
+        }
+    }
+}
+
+/// A hash-grid + MLP field's size. In a TOML file each field's table is
+/// given whole (all six keys) or left out.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FieldSize {
+    /// Hash levels.
+    pub levels: usize,
+    /// Features per level.
+    pub features_per_level: usize,
+    /// log2 of the table size per level.
+    pub log2_table_size: u32,
+    /// Coarsest resolution (cells per axis over [−1, 1]).
+    pub base_resolution: u32,
+    /// Finest resolution.
+    pub finest_resolution: u32,
+    /// Hidden layer widths.
+    pub hidden: Vec<usize>,
+}
+
+impl FieldSize {
+    /// The hash-grid settings.
+    pub fn grid(&self) -> HashGridConfig {
+        HashGridConfig {
+            n_levels: self.levels,
+            n_features: self.features_per_level,
+            log2_table_size: self.log2_table_size,
+            base_resolution: self.base_resolution,
+            finest_resolution: self.finest_resolution,
+            init_range: 1e-4,
+        }
+    }
+}
+
+/// The three fields of the model (SPEC §2).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ModelConfig {
+    /// The SDF field.
+    pub sdf: FieldSize,
+    /// Geometry features the SDF field outputs next to φ.
+    pub geometry_features: usize,
+    /// Radius of the initial sphere.
+    pub init_radius: f32,
+    /// The material field (9 parameters through a sigmoid).
+    pub material: FieldSize,
+    /// The ambient radiance field.
+    pub ambient: FieldSize,
+    /// Initial NeuS sharpness parameter v (s = exp(10 v)).
+    pub init_sharpness: f32,
+    /// Initial log flash gain.
+    pub init_log_gain: f32,
+    /// Material model settings (clearcoat Fresnel).
+    pub brdf: BrdfSettings,
+}
+
+impl Default for ModelConfig {
+    fn default() -> Self {
+        Self {
+            sdf: FieldSize {
+                levels: 14,
+                features_per_level: 2,
+                log2_table_size: 19,
+                base_resolution: 16,
+                finest_resolution: 1024,
+                hidden: vec![64],
+            },
+            geometry_features: 15,
+            init_radius: 0.5,
+            material: FieldSize {
+                levels: 12,
+                features_per_level: 2,
+                log2_table_size: 18,
+                base_resolution: 16,
+                finest_resolution: 1024,
+                hidden: vec![64],
+            },
+            ambient: FieldSize {
+                levels: 8,
+                features_per_level: 2,
+                log2_table_size: 17,
+                base_resolution: 8,
+                finest_resolution: 256,
+                hidden: vec![64, 64],
+            },
+            init_sharpness: 0.3,
+            init_log_gain: 0.0,
+            brdf: BrdfSettings::default(),
+        }
+    }
+}
+
+impl ModelConfig {
+    /// The SDF field's settings.
+    pub fn sdf_field(&self) -> SdfFieldConfig {
+        SdfFieldConfig {
+            grid: self.sdf.grid(),
+            bound: 1.0,
+            hidden: self.sdf.hidden.clone(),
+            activation: Activation::Softplus { beta: 100.0 },
+            n_features: self.geometry_features,
+            sphere_init_radius: Some(self.init_radius),
+        }
+    }
+}
+
+/// Sampling along rays (SPEC §2 and the occupancy grid).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SamplingConfig {
+    /// Occupancy grid cells per axis.
+    pub grid_resolution: usize,
+    /// Steps between occupancy grid refreshes.
+    pub grid_refresh_every: u64,
+    /// Coarse sections per grid cell.
+    pub coarse_steps_per_cell: f32,
+    /// Most coarse sections per ray.
+    pub max_coarse: usize,
+    /// Importance (fine) samples per ray.
+    pub fine_samples: usize,
+}
+
+impl Default for SamplingConfig {
+    fn default() -> Self {
+        Self {
+            grid_resolution: 64,
+            grid_refresh_every: 16,
+            coarse_steps_per_cell: 2.0,
+            max_coarse: 48,
+            fine_samples: 16,
+        }
+    }
+}
+
+/// What a run writes, and how often.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct OutputConfig {
+    /// Steps between metrics lines.
+    pub log_every: u64,
+    /// Steps between preview images (0 = none).
+    pub preview_every: u64,
+    /// Steps between checkpoints (a checkpoint is also written at the end).
+    pub checkpoint_every: u64,
+    /// Preview images are rendered at this fraction of the capture's resolution.
+    pub preview_scale: f64,
+}
+
+impl Default for OutputConfig {
+    fn default() -> Self {
+        Self {
+            log_every: 10,
+            preview_every: 500,
+            checkpoint_every: 500,
+            preview_scale: 0.5,
+        }
+    }
+}
+
+impl TrainConfig {
+    /// Parses a TOML configuration (missing keys take their defaults).
+    pub fn from_toml(text: &str) -> Result<Self, toml::de::Error> {
+        toml::from_str(text)
+    }
+
+    /// The configuration as TOML.
+    pub fn to_toml(&self) -> String {
+        toml::to_string_pretty(self).expect("the configuration serialises")
+    }
+
+    /// Checks values a user could get wrong; returns a message naming the setting.
+    pub fn validate(&self) -> Result<(), String> {
+        let bad = |what: &str, why: &str| Err(format!("{what}: {why}"));
+        if self.iters == 0 {
+            return bad("iters", "must be at least 1");
+        }
+        if self.batch_rays == 0 {
+            return bad("batch_rays", "must be at least 1");
+        }
+        if !(0.0..=1.0).contains(&self.foreground_fraction) {
+            return bad("foreground_fraction", "must be in [0, 1]");
+        }
+        for (name, v) in [
+            ("loss.color", self.loss.color),
+            ("loss.eikonal", self.loss.eikonal),
+            ("loss.mask", self.loss.mask),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(name, "must be finite and ≥ 0");
+            }
+        }
+        for (name, v) in [
+            ("optim.lr_grid", self.optim.lr_grid),
+            ("optim.lr_mlp", self.optim.lr_mlp),
+            ("optim.lr_sharpness", self.optim.lr_sharpness),
+            ("optim.lr_gain", self.optim.lr_gain),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(name, "must be finite and ≥ 0");
+            }
+        }
+        if self.sampling.grid_refresh_every == 0 {
+            return bad("sampling.grid_refresh_every", "must be at least 1");
+        }
+        if self.output.log_every == 0 || self.output.checkpoint_every == 0 {
+            return bad(
+                "output",
+                "log_every and checkpoint_every must be at least 1",
+            );
+        }
+        if !(self.output.preview_scale > 0.0 && self.output.preview_scale <= 1.0) {
+            return bad("output.preview_scale", "must be in (0, 1]");
+        }
+        Ok(())
+    }
+}
+
+/// Parses a duration such as `90s`, `30m`, `1h`, `1h30m` or a plain number of seconds.
+pub fn parse_duration(text: &str) -> Result<std::time::Duration, String> {
+    let t = text.trim();
+    if let Ok(secs) = t.parse::<f64>() {
+        if secs.is_finite() && secs >= 0.0 {
+            return Ok(std::time::Duration::from_secs_f64(secs));
+        }
+    }
+    let mut total = 0.0;
+    let mut number = String::new();
+    let mut seen_unit = false;
+    for ch in t.chars() {
+        if ch.is_ascii_digit() || ch == '.' {
+            number.push(ch);
+            continue;
+        }
+        let unit = match ch {
+            'h' => 3600.0,
+            'm' => 60.0,
+            's' => 1.0,
+            _ => return Err(format!("'{text}': unknown unit '{ch}' (use h, m or s)")),
+        };
+        let v: f64 = number
+            .parse()
+            .map_err(|_| format!("'{text}': expected a number before '{ch}'"))?;
+        total += v * unit;
+        number.clear();
+        seen_unit = true;
+    }
+    if !number.is_empty() || !seen_unit {
+        return Err(format!(
+            "'{text}': expected a duration such as 90s, 30m or 1h30m"
+        ));
+    }
+    Ok(std::time::Duration::from_secs_f64(total))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn toml_round_trip_and_partial_files() {
+        let c = TrainConfig::default();
+        assert_eq!(TrainConfig::from_toml(&c.to_toml()).unwrap(), c);
+        let partial = TrainConfig::from_toml("iters = 7\n[loss]\neikonal = 0.3\n").unwrap();
+        assert_eq!(partial.iters, 7);
+        assert_eq!(partial.loss.eikonal, 0.3);
+        assert_eq!(partial.loss.mask, 1.0);
+        let err = TrainConfig::from_toml("iterz = 7\n")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("iterz"), "{err}");
+    }
+
+    #[test]
+    fn validation_names_the_setting() {
+        let c = TrainConfig {
+            foreground_fraction: 1.5,
+            ..TrainConfig::default()
+        };
+        assert!(c.validate().unwrap_err().contains("foreground_fraction"));
+        assert!(TrainConfig::default().validate().is_ok());
+    }
+
+    #[test]
+    fn durations() {
+        assert_eq!(parse_duration("90s").unwrap().as_secs(), 90);
+        assert_eq!(parse_duration("30m").unwrap().as_secs(), 1800);
+        assert_eq!(parse_duration("1h30m").unwrap().as_secs(), 5400);
+        assert_eq!(parse_duration("12").unwrap().as_secs(), 12);
+        assert!(parse_duration("5x").is_err());
+        assert!(parse_duration("m").is_err());
+    }
+}

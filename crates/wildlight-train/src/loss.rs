@@ -1,0 +1,131 @@
+//! The training losses of SPEC §4 with their gradients.
+
+/// Clamp of the accumulated weight inside the mask cross-entropy (SPEC §4).
+pub const MASK_CLAMP: f32 = 1e-3;
+
+/// The L1 colour loss over the rays marked `counts`, excluding saturated
+/// channels (SPEC §4: a channel counts unless both the prediction and the
+/// observation are ≥ the cap). Returns (loss, counted channels, MSE of the
+/// counted channels) and writes ∂loss/∂pred · `weight` into `d_pred`.
+pub fn colour_l1(
+    pred: &[[f32; 3]],
+    target: &[[f32; 3]],
+    counts: &[bool],
+    cap: Option<f32>,
+    weight: f32,
+    d_pred: &mut [[f32; 3]],
+) -> (f64, usize, f64) {
+    let mut n = 0usize;
+    let (mut l1, mut l2) = (0.0f64, 0.0f64);
+    for ((p, t), &c) in pred.iter().zip(target).zip(counts) {
+        if !c {
+            continue;
+        }
+        for ch in 0..3 {
+            if !saturated(p[ch], t[ch], cap) {
+                let e = (p[ch] - t[ch]) as f64;
+                l1 += e.abs();
+                l2 += e * e;
+                n += 1;
+            }
+        }
+    }
+    let inv = if n > 0 { 1.0 / n as f64 } else { 0.0 };
+    for ((d, (p, t)), &c) in d_pred.iter_mut().zip(pred.iter().zip(target)).zip(counts) {
+        for ch in 0..3 {
+            d[ch] = if c && !saturated(p[ch], t[ch], cap) {
+                let e = p[ch] - t[ch];
+                let sign = if e > 0.0 {
+                    1.0
+                } else if e < 0.0 {
+                    -1.0
+                } else {
+                    0.0
+                };
+                weight * sign * inv as f32
+            } else {
+                0.0
+            };
+        }
+    }
+    (l1 * inv, n, l2 * inv)
+}
+
+#[inline]
+fn saturated(pred: f32, obs: f32, cap: Option<f32>) -> bool {
+    cap.is_some_and(|c| pred >= c && obs >= c)
+}
+
+/// Mean binary cross-entropy between Σw (clamped to [1e-3, 1 − 1e-3]) and
+/// the mask (SPEC §4); writes ∂loss/∂(Σw) · `weight` into `d_acc`.
+pub fn mask_bce(acc: &[f32], mask: &[f32], weight: f32, d_acc: &mut [f32]) -> f64 {
+    let n = acc.len().max(1) as f64;
+    let mut loss = 0.0f64;
+    for ((a, m), d) in acc.iter().zip(mask).zip(d_acc.iter_mut()) {
+        let clamped = a.clamp(MASK_CLAMP, 1.0 - MASK_CLAMP);
+        let (a64, m64) = (clamped as f64, *m as f64);
+        loss -= m64 * a64.ln() + (1.0 - m64) * (1.0 - a64).ln();
+        *d = if *a > MASK_CLAMP && *a < 1.0 - MASK_CLAMP {
+            (weight as f64 * (-(m64 / a64) + (1.0 - m64) / (1.0 - a64)) / n) as f32
+        } else {
+            0.0
+        };
+    }
+    loss / n
+}
+
+/// PSNR in dB for a mean squared error and a peak value.
+pub fn psnr(mse: f64, peak: f64) -> f64 {
+    if mse <= 0.0 {
+        f64::INFINITY
+    } else {
+        10.0 * (peak * peak / mse).log10()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn l1_skips_saturated_channels_and_masked_rays() {
+        let pred = [[0.5, 1.2, 0.9], [0.1, 0.1, 0.1]];
+        let target = [[0.25, 1.0, 1.1], [9.0, 9.0, 9.0]];
+        let mut d = [[0.0; 3]; 2];
+        let (l, n, mse) = colour_l1(&pred, &target, &[true, false], Some(1.0), 2.0, &mut d);
+        // green: both ≥ cap → excluded; red and blue count.
+        assert_eq!(n, 2);
+        assert!((l - (0.25 + 0.2) / 2.0).abs() < 1e-6);
+        assert!((mse - (0.0625 + 0.04) / 2.0).abs() < 1e-6);
+        assert_eq!(d[0], [1.0, 0.0, -1.0]);
+        assert_eq!(d[1], [0.0; 3]);
+    }
+
+    #[test]
+    fn bce_gradient_matches_finite_differences() {
+        let acc = [0.3f32, 0.9, 0.5];
+        let mask = [1.0f32, 0.0, 1.0];
+        let mut d = [0.0f32; 3];
+        mask_bce(&acc, &mask, 1.0, &mut d);
+        for i in 0..3 {
+            let h = 1e-3f32;
+            let (mut hi, mut lo) = (acc, acc);
+            hi[i] += h;
+            lo[i] -= h;
+            let mut scratch = [0.0f32; 3];
+            let fd = (mask_bce(&hi, &mask, 1.0, &mut scratch)
+                - mask_bce(&lo, &mask, 1.0, &mut scratch))
+                / (2.0 * h as f64);
+            assert!(
+                (fd - d[i] as f64).abs() < 1e-3 * fd.abs().max(1.0),
+                "{i}: {fd} vs {}",
+                d[i]
+            );
+        }
+    }
+
+    #[test]
+    fn psnr_of_known_error() {
+        assert!((psnr(0.01, 1.0) - 20.0).abs() < 1e-12);
+    }
+}

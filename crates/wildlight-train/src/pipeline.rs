@@ -1,0 +1,430 @@
+//! One pass of the whole differentiable image formation (SPEC §2) over a
+//! batch of rays, with its backward pass:
+//!
+//! ```text
+//! rays → occupancy-grid sampler (coarse φ, refinement) → sample points
+//!      → SDF field with finite-difference normals → NeuS weights w_k
+//!      → material field Θ_k, ambient field a_k, flash term f_k
+//!      → C = Σ w_k (a_k + f_k), Σ w_k
+//! ```
+//!
+//! The backward pass takes ∂L/∂C and ∂L/∂(Σw) per ray (and the eikonal
+//! weight) and accumulates the gradients of every model parameter.
+//! Buffers are kept between calls; nothing is allocated per sample.
+
+use crate::model::{Model, ModelGrads};
+use wildlight_fields::{FdScheme, FieldContext, NormalContext};
+use wildlight_material::PARAM_COUNT;
+use wildlight_render::{
+    CoarseSamples, FlashCache, FlashInputs, NeusInputs, NeusSettings, NeusWeights, OccupancyGrid,
+    RaySamples, Rays, SH_DEG4_LEN, Sampler, composite, composite_backward, flash_backward,
+    flash_forward, sh_deg4,
+};
+
+/// Radius of the ball in which the eikonal term applies (SPEC §4).
+pub const EIKONAL_RADIUS: f32 = 1.2;
+
+/// The rays of one pass (normalized frame) and the flash energy of each
+/// ray's image.
+#[derive(Clone, Copy, Debug)]
+pub struct RayInputs<'a> {
+    /// Camera centres.
+    pub origins: &'a [[f32; 3]],
+    /// Unit directions.
+    pub dirs: &'a [[f32; 3]],
+    /// `light_energy` of each ray's image (zeros: flash off).
+    pub energy: &'a [[f32; 3]],
+}
+
+/// Per-pass settings that change during training.
+#[derive(Clone, Copy, Debug)]
+pub struct PassSettings {
+    /// Finite-difference step of the SDF normals.
+    pub fd_step: f64,
+    /// NeuS cos-annealing ratio.
+    pub cos_anneal_ratio: f64,
+    /// Seed of the sampler's stratified jitter (`None`: strata centres).
+    pub jitter_seed: Option<u64>,
+}
+
+/// Buffers and results of a pass.
+#[derive(Default)]
+pub struct Pipeline {
+    sampler: Option<Sampler>,
+    coarse: CoarseSamples,
+    /// The samples of the last pass.
+    pub samples: RaySamples,
+    sdf_ctx: FieldContext<f32>,
+    normal_ctx: NormalContext<f32>,
+    points: Vec<[f32; 3]>,
+    n_samples: usize,
+    /// NeuS alphas, weights and Σw of the last pass.
+    pub weights: NeusWeights<f32>,
+    material_ctx: FieldContext<f32>,
+    ambient_ctx: FieldContext<f32>,
+    ambient_extra: Vec<f32>,
+    flash_cache: FlashCache<f32>,
+    /// Material parameters at each sample.
+    pub theta: Vec<[f32; PARAM_COUNT]>,
+    /// Unit normals at each sample.
+    pub normals: Vec<[f32; 3]>,
+    /// Ambient radiance at each sample.
+    pub ambient: Vec<[f32; 3]>,
+    /// Flash radiance at each sample.
+    pub flash: Vec<[f32; 3]>,
+    sample_colour: Vec<[f32; 3]>,
+    /// Composited colour of each ray.
+    pub colour: Vec<[f32; 3]>,
+    /// Mean eikonal residual (|∇φ| − 1)² over the points inside the ball.
+    pub eikonal: f64,
+    eikonal_count: usize,
+    // backward buffers
+    d_weight: Vec<f32>,
+    d_colour_sample: Vec<[f32; 3]>,
+    d_theta: Vec<[f32; PARAM_COUNT]>,
+    d_grad: Vec<[f32; 3]>,
+    d_sdf: Vec<f32>,
+    d_features: Vec<f32>,
+    d_ambient_extra: Vec<f32>,
+}
+
+/// Fills `out` with the SDF at `pts` (no normals, no gradients).
+pub fn eval_sdf(model: &Model, pts: &[[f32; 3]], out: &mut [f32], ctx: &mut FieldContext<f32>) {
+    model.sdf.forward(pts, ctx);
+    let stride = model.sdf.n_output();
+    for (o, row) in out.iter_mut().zip(ctx.output().chunks_exact(stride)) {
+        *o = row[0];
+    }
+}
+
+impl Pipeline {
+    /// An empty pipeline; `sampler` is the fast sampler to use.
+    pub fn new(sampler: Sampler) -> Self {
+        Self {
+            sampler: Some(sampler),
+            ..Self::default()
+        }
+    }
+
+    /// Number of samples of the last pass.
+    pub fn n_samples(&self) -> usize {
+        self.n_samples
+    }
+
+    /// Forward pass. `eikonal_points` are extra points (beyond the samples)
+    /// where the SDF gradient is evaluated for the eikonal term.
+    pub fn forward(
+        &mut self,
+        model: &Model,
+        grid: &OccupancyGrid,
+        rays: &RayInputs<'_>,
+        eikonal_points: &[[f32; 3]],
+        settings: &PassSettings,
+    ) {
+        let s = model.s();
+        let render_rays = Rays {
+            origins: rays.origins,
+            dirs: rays.dirs,
+        };
+        let sampler = self
+            .sampler
+            .as_mut()
+            .expect("pipeline built with a sampler");
+        let sdf_ctx = &mut self.sdf_ctx;
+        sampler.sample(
+            grid,
+            &render_rays,
+            |pts: &[[f32; 3]], out: &mut [f32]| eval_sdf(model, pts, out, sdf_ctx),
+            s,
+            settings.jitter_seed,
+            &mut self.coarse,
+            &mut self.samples,
+        );
+        self.forward_samples(model, rays, eikonal_points, settings);
+    }
+
+    /// Forward pass over samples already in `self.samples` (set by
+    /// [`Pipeline::forward`] or by a caller, e.g. the dense reference sampler).
+    pub fn forward_samples(
+        &mut self,
+        model: &Model,
+        rays: &RayInputs<'_>,
+        eikonal_points: &[[f32; 3]],
+        settings: &PassSettings,
+    ) {
+        let n = self.samples.len();
+        self.n_samples = n;
+        let nf = model.config.geometry_features;
+        let offsets = &self.samples.offsets;
+
+        // SDF, features and FD gradients at the samples and the eikonal points.
+        self.points.clear();
+        self.points.extend_from_slice(&self.samples.positions);
+        self.points.extend_from_slice(eikonal_points);
+        model.sdf.forward_with_normals(
+            &self.points,
+            FdScheme::Tetrahedral,
+            settings.fd_step,
+            &mut self.normal_ctx,
+        );
+        let ctx = &self.normal_ctx;
+
+        // NeuS weights (SPEC §2).
+        let neus = NeusSettings {
+            cos_anneal_ratio: settings.cos_anneal_ratio,
+            ..NeusSettings::default()
+        };
+        self.weights.forward(
+            &NeusInputs {
+                offsets,
+                ray_dirs: rays.dirs,
+                sdf: &ctx.sdf[..n],
+                sdf_grad: &ctx.gradient[..n],
+                delta: &self.samples.delta,
+            },
+            model.sharpness,
+            &neus,
+        );
+
+        // Material parameters Θ = sigmoid(outputs) (SPEC §3).
+        model
+            .material
+            .forward(&self.samples.positions, &[], &mut self.material_ctx);
+        self.theta.clear();
+        self.theta.extend(
+            self.material_ctx
+                .output()
+                .chunks_exact(PARAM_COUNT)
+                .map(|r| <[f32; PARAM_COUNT]>::try_from(r).expect("9 outputs")),
+        );
+
+        // Ambient radiance from [features, normal, SH(view), Θ].
+        let ne = crate::model::ambient_extra_inputs(nf);
+        self.normals.clear();
+        self.ambient_extra.clear();
+        self.ambient_extra.reserve(n * ne);
+        for ray in 0..rays.dirs.len() {
+            let sh: [f32; SH_DEG4_LEN] = sh_deg4(rays.dirs[ray]);
+            for k in offsets[ray] as usize..offsets[ray + 1] as usize {
+                let g = ctx.gradient[k];
+                let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt().max(1e-12);
+                let nrm = [g[0] / len, g[1] / len, g[2] / len];
+                self.normals.push(nrm);
+                self.ambient_extra
+                    .extend_from_slice(&ctx.features[k * nf..(k + 1) * nf]);
+                self.ambient_extra.extend_from_slice(&nrm);
+                self.ambient_extra.extend_from_slice(&sh);
+                self.ambient_extra.extend_from_slice(&self.theta[k]);
+            }
+        }
+        model.ambient.forward(
+            &self.samples.positions,
+            &self.ambient_extra,
+            &mut self.ambient_ctx,
+        );
+        self.ambient.clear();
+        self.ambient.extend(
+            self.ambient_ctx
+                .output()
+                .chunks_exact(3)
+                .map(|r| [r[0], r[1], r[2]]),
+        );
+
+        // Flash term (SPEC §2).
+        self.flash.clear();
+        self.flash.resize(n, [0.0; 3]);
+        flash_forward(
+            &FlashInputs {
+                offsets,
+                ray_dirs: rays.dirs,
+                light_energy: rays.energy,
+                t: &self.samples.t,
+                sdf_grad: &ctx.gradient[..n],
+                params: &self.theta,
+            },
+            model.log_gain,
+            &model.config.brdf,
+            &mut self.flash,
+            Some(&mut self.flash_cache),
+        );
+
+        // C = Σ w_k (a_k + f_k).
+        self.sample_colour.clear();
+        self.sample_colour.extend(
+            self.ambient
+                .iter()
+                .zip(&self.flash)
+                .map(|(a, f)| [a[0] + f[0], a[1] + f[1], a[2] + f[2]]),
+        );
+        self.colour.clear();
+        self.colour.resize(rays.dirs.len(), [0.0; 3]);
+        composite(
+            offsets,
+            &self.weights.weight,
+            &self.sample_colour,
+            &mut self.colour,
+        );
+
+        // Eikonal residual over every point inside the ball (SPEC §4).
+        let (mut sum, mut count) = (0.0f64, 0usize);
+        for (p, g) in self.points.iter().zip(&ctx.gradient) {
+            if p[0] * p[0] + p[1] * p[1] + p[2] * p[2] <= EIKONAL_RADIUS * EIKONAL_RADIUS {
+                let len = ((g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) as f64).sqrt();
+                sum += (len - 1.0) * (len - 1.0);
+                count += 1;
+            }
+        }
+        self.eikonal = if count > 0 { sum / count as f64 } else { 0.0 };
+        self.eikonal_count = count;
+    }
+
+    /// Σw of each ray of the last pass.
+    pub fn acc_weight(&self) -> &[f32] {
+        &self.weights.acc_weight
+    }
+
+    /// Backward pass of the last forward pass: `d_colour` = ∂L/∂C and
+    /// `d_acc` = ∂L/∂(Σw) per ray; `eikonal_weight` scales the eikonal term
+    /// (whose value is [`Pipeline::eikonal`]). ADDS into `grads`.
+    pub fn backward(
+        &mut self,
+        model: &Model,
+        rays: &RayInputs<'_>,
+        d_colour: &[[f32; 3]],
+        d_acc: &[f32],
+        eikonal_weight: f32,
+        settings: &PassSettings,
+        grads: &mut ModelGrads,
+    ) {
+        let n = self.n_samples;
+        let n_points = self.points.len();
+        let nf = model.config.geometry_features;
+        let ne = crate::model::ambient_extra_inputs(nf);
+        let offsets = &self.samples.offsets;
+        let ctx = &self.normal_ctx;
+
+        // C = Σ w_k c_k
+        self.d_weight.clear();
+        self.d_weight.resize(n, 0.0);
+        self.d_colour_sample.clear();
+        self.d_colour_sample.resize(n, [0.0; 3]);
+        composite_backward(
+            offsets,
+            &self.weights.weight,
+            &self.sample_colour,
+            d_colour,
+            &mut self.d_weight,
+            Some(&mut self.d_colour_sample),
+        );
+
+        // Flash term → Θ, ∇φ, g.
+        self.d_theta.clear();
+        self.d_theta.resize(n, [0.0; PARAM_COUNT]);
+        self.d_grad.clear();
+        self.d_grad.resize(n_points, [0.0; 3]);
+        let d_log_gain = flash_backward(
+            &FlashInputs {
+                offsets,
+                ray_dirs: rays.dirs,
+                light_energy: rays.energy,
+                t: &self.samples.t,
+                sdf_grad: &ctx.gradient[..n],
+                params: &self.theta,
+            },
+            model.log_gain,
+            &model.config.brdf,
+            Some(&self.flash_cache),
+            &self.d_colour_sample,
+            &mut self.d_theta,
+            &mut self.d_grad[..n],
+        );
+        grads.log_gain += d_log_gain;
+
+        // Ambient field → its parameters and its inputs.
+        let d_amb: &[f32] = self.d_colour_sample.as_flattened();
+        self.d_ambient_extra.clear();
+        self.d_ambient_extra.resize(n * ne, 0.0);
+        model.ambient.backward(
+            &mut self.ambient_ctx,
+            d_amb,
+            &mut grads.ambient,
+            Some(&mut self.d_ambient_extra),
+            None,
+        );
+        self.d_features.clear();
+        self.d_features.resize(n_points * nf, 0.0);
+        for k in 0..n {
+            let row = &self.d_ambient_extra[k * ne..(k + 1) * ne];
+            self.d_features[k * nf..(k + 1) * nf].copy_from_slice(&row[..nf]);
+            // n = ∇φ/|∇φ|: ∂L/∂∇φ = (∂L/∂n − n (n·∂L/∂n)) / |∇φ|
+            let dn = [row[nf], row[nf + 1], row[nf + 2]];
+            let nrm = self.normals[k];
+            let g = ctx.gradient[k];
+            let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt().max(1e-12);
+            let proj = dn[0] * nrm[0] + dn[1] * nrm[1] + dn[2] * nrm[2];
+            for a in 0..3 {
+                self.d_grad[k][a] += (dn[a] - nrm[a] * proj) / len;
+            }
+            let theta_col = nf + 3 + SH_DEG4_LEN;
+            for j in 0..PARAM_COUNT {
+                self.d_theta[k][j] += row[theta_col + j];
+            }
+        }
+
+        // Material field.
+        model.material.backward(
+            &mut self.material_ctx,
+            self.d_theta.as_flattened(),
+            &mut grads.material,
+            None,
+            None,
+        );
+
+        // NeuS weights → φ, ∇φ, v.
+        self.d_sdf.clear();
+        self.d_sdf.resize(n_points, 0.0);
+        let neus = NeusSettings {
+            cos_anneal_ratio: settings.cos_anneal_ratio,
+            ..NeusSettings::default()
+        };
+        let d_v = self.weights.backward(
+            &NeusInputs {
+                offsets,
+                ray_dirs: rays.dirs,
+                sdf: &ctx.sdf[..n],
+                sdf_grad: &ctx.gradient[..n],
+                delta: &self.samples.delta,
+            },
+            model.sharpness,
+            &neus,
+            &self.d_weight,
+            Some(d_acc),
+            &mut self.d_sdf[..n],
+            &mut self.d_grad[..n],
+        );
+        grads.sharpness += d_v;
+
+        // Eikonal: ∂/∂∇φ of w·mean((|∇φ| − 1)²) = w·2(|∇φ| − 1)·∇φ/|∇φ| / count.
+        if self.eikonal_count > 0 && eikonal_weight != 0.0 {
+            let scale = eikonal_weight * 2.0 / self.eikonal_count as f32;
+            for ((p, g), dg) in self.points.iter().zip(&ctx.gradient).zip(&mut self.d_grad) {
+                if p[0] * p[0] + p[1] * p[1] + p[2] * p[2] <= EIKONAL_RADIUS * EIKONAL_RADIUS {
+                    let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt().max(1e-12);
+                    let f = scale * (len - 1.0) / len;
+                    for a in 0..3 {
+                        dg[a] += f * g[a];
+                    }
+                }
+            }
+        }
+
+        // SDF field through the finite-difference normals.
+        model.sdf.backward_with_normals(
+            &mut self.normal_ctx,
+            &self.d_sdf,
+            &self.d_features,
+            &self.d_grad,
+            &mut grads.sdf,
+        );
+    }
+}

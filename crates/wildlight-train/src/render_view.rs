@@ -1,0 +1,126 @@
+//! Rendering whole views of a trained model: the image and its maps
+//! (flash-only, ambient-only, normal, depth, accumulated weight and the
+//! material parameters), in ray chunks.
+
+use crate::model::Model;
+use crate::pipeline::{PassSettings, Pipeline, RayInputs};
+use wildlight_data::Camera;
+use wildlight_material::PARAM_COUNT;
+use wildlight_render::{OccupancyGrid, composite};
+
+/// Rays rendered per chunk (bounds memory).
+pub const RENDER_CHUNK: usize = 8192;
+
+/// Everything rendered for one view. Per-pixel arrays are row-major.
+#[derive(Clone, Debug, Default)]
+pub struct ViewMaps {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Rendered linear RGB (ambient + flash).
+    pub rgb: Vec<[f32; 3]>,
+    /// Flash-only radiance.
+    pub flash: Vec<[f32; 3]>,
+    /// Ambient-only radiance.
+    pub ambient: Vec<[f32; 3]>,
+    /// Unit normal (normalized frame); zero where nothing was hit.
+    pub normal: Vec<[f32; 3]>,
+    /// Distance along the ray to the surface (normalized frame), weight-averaged.
+    pub depth: Vec<f32>,
+    /// Accumulated weight Σw (the soft mask).
+    pub acc: Vec<f32>,
+    /// Weight-averaged material parameters.
+    pub params: Vec<[f32; PARAM_COUNT]>,
+}
+
+/// Renders `camera` at `scale` times its resolution with the given flash
+/// energy (use the camera's own `light_energy` for "as captured").
+pub fn render_view(
+    model: &Model,
+    grid: &OccupancyGrid,
+    pipeline: &mut Pipeline,
+    camera: &Camera,
+    energy: [f32; 3],
+    scale: f64,
+    fd_step: f64,
+) -> ViewMaps {
+    let width = ((camera.width as f64 * scale).round() as u32).max(1);
+    let height = ((camera.height as f64 * scale).round() as u32).max(1);
+    let (sx, sy) = (
+        camera.width as f64 / width as f64,
+        camera.height as f64 / height as f64,
+    );
+    let n = (width * height) as usize;
+    let mut maps = ViewMaps {
+        width,
+        height,
+        rgb: Vec::with_capacity(n),
+        flash: Vec::with_capacity(n),
+        ambient: Vec::with_capacity(n),
+        normal: Vec::with_capacity(n),
+        depth: Vec::with_capacity(n),
+        acc: Vec::with_capacity(n),
+        params: Vec::with_capacity(n),
+    };
+    let settings = PassSettings {
+        fd_step,
+        cos_anneal_ratio: 1.0,
+        jitter_seed: None,
+    };
+    let (mut origins, mut dirs) = (Vec::new(), Vec::new());
+    for start in (0..n).step_by(RENDER_CHUNK) {
+        let end = (start + RENDER_CHUNK).min(n);
+        origins.clear();
+        dirs.clear();
+        for p in start..end {
+            let (x, y) = ((p as u32 % width) as f64, (p as u32 / width) as f64);
+            // pixel centre of the scaled image in the original pixel grid
+            let ray = camera.ray((x + 0.5) * sx - 0.5, (y + 0.5) * sy - 0.5);
+            origins.push(ray.origin.as_vec3().to_array());
+            dirs.push(ray.dir.as_vec3().normalize().to_array());
+        }
+        let energies = vec![energy; end - start];
+        let rays = RayInputs {
+            origins: &origins,
+            dirs: &dirs,
+            energy: &energies,
+        };
+        pipeline.forward(model, grid, &rays, &[], &settings);
+        append_maps(pipeline, end - start, &mut maps);
+    }
+    maps
+}
+
+fn append_maps(p: &Pipeline, n_rays: usize, maps: &mut ViewMaps) {
+    let offsets = &p.samples.offsets;
+    let w = &p.weights.weight;
+    let mut buf3 = vec![[0.0f32; 3]; n_rays];
+    maps.rgb.extend_from_slice(&p.colour);
+    composite(offsets, w, &p.flash, &mut buf3);
+    maps.flash.extend_from_slice(&buf3);
+    composite(offsets, w, &p.ambient, &mut buf3);
+    maps.ambient.extend_from_slice(&buf3);
+    composite(offsets, w, &p.normals, &mut buf3);
+    let acc = p.acc_weight();
+    for (nrm, a) in buf3.iter().zip(acc) {
+        let len = (nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]).sqrt();
+        maps.normal.push(if *a > 1e-3 && len > 1e-6 {
+            [nrm[0] / len, nrm[1] / len, nrm[2] / len]
+        } else {
+            [0.0; 3]
+        });
+    }
+    let t1: Vec<[f32; 1]> = p.samples.t.iter().map(|t| [*t]).collect();
+    let mut depth = vec![[0.0f32; 1]; n_rays];
+    composite(offsets, w, &t1, &mut depth);
+    let mut params = vec![[0.0f32; PARAM_COUNT]; n_rays];
+    composite(offsets, w, &p.theta, &mut params);
+    for ((d, th), a) in depth.iter().zip(&mut params).zip(acc) {
+        let inv = if *a > 1e-3 { 1.0 / a } else { 0.0 };
+        maps.depth.push(d[0] * inv);
+        th.iter_mut().for_each(|v| *v *= inv);
+    }
+    maps.params.extend_from_slice(&params);
+    maps.acc.extend_from_slice(acc);
+}

@@ -1,0 +1,265 @@
+//! A run folder and the training loop behind `wildlight train`:
+//!
+//! ```text
+//! RUN/config.toml              the resolved configuration
+//! RUN/run.json                 the dataset path and the wildlight version
+//! RUN/checkpoint.safetensors   the latest checkpoint (written atomically)
+//! RUN/metrics.jsonl            one JSON line per logged step
+//! RUN/previews/step_NNNNNN.png preview strips
+//! ```
+
+use crate::config::TrainConfig;
+use crate::rays::TrainingRays;
+use crate::render_view::render_view;
+use crate::trainer::{StepStats, Trainer};
+use anyhow::{Context, bail};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+use wildlight_data::{Dataset, LoadOptions};
+
+/// File names inside a run folder.
+pub const CONFIG_FILE: &str = "config.toml";
+/// See [`CONFIG_FILE`].
+pub const RUN_FILE: &str = "run.json";
+/// See [`CONFIG_FILE`].
+pub const CHECKPOINT_FILE: &str = "checkpoint.safetensors";
+/// See [`CONFIG_FILE`].
+pub const METRICS_FILE: &str = "metrics.jsonl";
+
+/// What `run.json` records.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct RunInfo {
+    /// The dataset folder (absolute).
+    pub data: PathBuf,
+    /// The wildlight version that created the run.
+    pub version: String,
+}
+
+/// Options of a training run.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    /// Dataset folder (may be left out with `resume`).
+    pub data: Option<PathBuf>,
+    /// Run folder.
+    pub out: PathBuf,
+    /// The configuration (ignored with `resume`: the run's own is used,
+    /// except `iters`, which may be raised).
+    pub config: TrainConfig,
+    /// Stop after this much wall time.
+    pub time_budget: Option<Duration>,
+    /// Continue the run in `out` from its checkpoint.
+    pub resume: bool,
+    /// Show a progress bar.
+    pub progress: bool,
+}
+
+/// What a finished run reports.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct RunSummary {
+    /// Steps taken in total.
+    pub steps: u64,
+    /// Wall time of this invocation in seconds.
+    pub seconds: f64,
+    /// The last step's statistics.
+    pub last: Option<StepStats>,
+    /// Steps skipped because of non-finite values.
+    pub skipped_steps: u64,
+    /// The run folder.
+    pub run: PathBuf,
+}
+
+fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    let tmp = path.with_extension("tmp");
+    std::fs::write(&tmp, bytes).with_context(|| format!("cannot write {}", tmp.display()))?;
+    std::fs::rename(&tmp, path)
+        .with_context(|| format!("cannot move {} to {}", tmp.display(), path.display()))
+}
+
+/// Reads a run folder's configuration and dataset path.
+pub fn read_run(run: &Path) -> anyhow::Result<(TrainConfig, RunInfo)> {
+    let cfg_path = run.join(CONFIG_FILE);
+    let text = std::fs::read_to_string(&cfg_path).with_context(|| {
+        format!(
+            "{} is not a wildlight run folder: cannot read {}",
+            run.display(),
+            cfg_path.display()
+        )
+    })?;
+    let config =
+        TrainConfig::from_toml(&text).with_context(|| format!("{}", cfg_path.display()))?;
+    let info_path = run.join(RUN_FILE);
+    let info: RunInfo = serde_json::from_str(
+        &std::fs::read_to_string(&info_path)
+            .with_context(|| format!("cannot read {}", info_path.display()))?,
+    )
+    .with_context(|| format!("{}: not a valid run description", info_path.display()))?;
+    Ok((config, info))
+}
+
+/// Loads a capture for training and checks that it can be trained on.
+/// Returns the dataset and the warnings a user should see.
+pub fn load_capture(data: &Path) -> anyhow::Result<(Dataset, Vec<String>)> {
+    let dataset = Dataset::load(data, &LoadOptions::default())
+        .with_context(|| format!("cannot load the capture {}", data.display()))?;
+    if !dataset.has_masks() {
+        bail!(
+            "{}: the capture has no masks (mask/NNN.png for every image); training without masks \
+             (SPEC §6) is not available yet",
+            data.display()
+        );
+    }
+    let mut warnings = Vec::new();
+    if dataset.flash_count() == 0 {
+        warnings.push(format!(
+            "{}: no image has the flash on (every light_energy is zero): geometry and ambient \
+             light will be learned, but reflectance is then unconstrained",
+            data.display()
+        ));
+    }
+    Ok((dataset, warnings))
+}
+
+/// Trains (or resumes) a run.
+pub fn train(opts: &RunOptions) -> anyhow::Result<RunSummary> {
+    let ckpt = opts.out.join(CHECKPOINT_FILE);
+    let (config, data) = if opts.resume {
+        let (mut config, info) = read_run(&opts.out)?;
+        if !ckpt.exists() {
+            bail!(
+                "{}: nothing to resume (no {CHECKPOINT_FILE})",
+                opts.out.display()
+            );
+        }
+        config.iters = config.iters.max(opts.config.iters);
+        (config, opts.data.clone().unwrap_or(info.data))
+    } else {
+        if ckpt.exists() {
+            bail!(
+                "{} already holds a trained run; pass --resume to continue it, or choose another --out",
+                opts.out.display()
+            );
+        }
+        let data = opts
+            .data
+            .clone()
+            .context("--data is required for a new run")?;
+        (opts.config.clone(), data)
+    };
+    config.validate().map_err(anyhow::Error::msg)?;
+    let (dataset, warnings) = load_capture(&data)?;
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
+    std::fs::create_dir_all(opts.out.join("previews"))
+        .with_context(|| format!("cannot create {}", opts.out.display()))?;
+    let data_abs = std::fs::canonicalize(&data).unwrap_or(data.clone());
+    write_atomic(&opts.out.join(CONFIG_FILE), config.to_toml().as_bytes())?;
+    write_atomic(
+        &opts.out.join(RUN_FILE),
+        serde_json::to_string_pretty(&RunInfo {
+            data: data_abs,
+            version: env!("CARGO_PKG_VERSION").to_string(),
+        })?
+        .as_bytes(),
+    )?;
+
+    let rays = TrainingRays::new(&dataset);
+    let mut trainer = Trainer::new(config.clone(), rays)?;
+    if opts.resume {
+        trainer.load_checkpoint(&ckpt)?;
+    }
+    let preview_view = dataset
+        .val
+        .as_ref()
+        .and_then(|v| v.views.first())
+        .unwrap_or(&dataset.views[0])
+        .clone();
+    let metrics_path = opts.out.join(METRICS_FILE);
+    let mut metrics = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&metrics_path)
+        .with_context(|| format!("cannot open {}", metrics_path.display()))?;
+
+    let start = Instant::now();
+    let first_step = trainer.step;
+    let bar = if opts.progress {
+        let b = ProgressBar::new(config.iters);
+        b.set_style(
+            ProgressStyle::with_template(
+                "{elapsed_precise} [{bar:30}] {pos}/{len} ETA {eta} {msg}",
+            )
+            .expect("valid template")
+            .progress_chars("=> "),
+        );
+        b.set_position(trainer.step);
+        b
+    } else {
+        ProgressBar::hidden()
+    };
+    let mut last = None;
+    while trainer.step < config.iters {
+        if opts.time_budget.is_some_and(|b| start.elapsed() >= b) {
+            break;
+        }
+        let stats = trainer.step();
+        let done = trainer.step;
+        if done % config.output.log_every == 0 || done == config.iters {
+            let elapsed = start.elapsed().as_secs_f64();
+            let rays_per_s = (done - first_step) as f64 * config.batch_rays as f64 / elapsed;
+            let mut line = serde_json::to_value(&stats)?;
+            line["time"] = serde_json::json!(elapsed);
+            line["rays_per_s"] = serde_json::json!(rays_per_s);
+            writeln!(metrics, "{line}")?;
+            bar.set_message(format!(
+                "loss {:.4} psnr {:.1} s {:.0} γ {:.3} {:.0} rays/s",
+                stats.loss, stats.psnr, stats.s, stats.gamma, rays_per_s
+            ));
+        }
+        bar.set_position(done);
+        if config.output.preview_every > 0 && done % config.output.preview_every == 0 {
+            write_step_preview(&mut trainer, &preview_view, &opts.out, done)?;
+        }
+        if done % config.output.checkpoint_every == 0 {
+            trainer.save_checkpoint(&ckpt)?;
+        }
+        last = Some(stats);
+    }
+    bar.finish_and_clear();
+    trainer.save_checkpoint(&ckpt)?;
+    if config.output.preview_every > 0 {
+        let step = trainer.step;
+        write_step_preview(&mut trainer, &preview_view, &opts.out, step)?;
+    }
+    Ok(RunSummary {
+        steps: trainer.step,
+        seconds: start.elapsed().as_secs_f64(),
+        last,
+        skipped_steps: trainer.skipped_steps,
+        run: opts.out.clone(),
+    })
+}
+
+fn write_step_preview(
+    trainer: &mut Trainer,
+    view: &wildlight_data::View,
+    out: &Path,
+    step: u64,
+) -> anyhow::Result<()> {
+    let fd = trainer.fd_step();
+    let energy = view.camera.light_energy.map(|e| e as f32);
+    let scale = trainer.config.output.preview_scale;
+    let maps = render_view(
+        &trainer.model,
+        &trainer.grid,
+        &mut trainer.pipeline,
+        &view.camera,
+        energy,
+        scale,
+        fd,
+    );
+    let path = out.join("previews").join(format!("step_{step:06}.png"));
+    crate::preview::write_preview(&path, view, &maps)
+}

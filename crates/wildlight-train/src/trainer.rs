@@ -1,0 +1,421 @@
+//! The optimisation: one [`Trainer::step`] draws a batch of rays across all
+//! images, renders it, evaluates the losses of SPEC §4 and updates every
+//! parameter with Adam. Deterministic for a seed and a thread count: each
+//! step's random numbers come from (seed, step) alone, so a resumed run
+//! continues exactly.
+
+use crate::config::TrainConfig;
+use crate::loss::{colour_l1, mask_bce, psnr};
+use crate::model::{Model, ModelGrads};
+use crate::pipeline::{PassSettings, Pipeline, RayInputs, eval_sdf};
+use crate::rays::{RayBatch, TrainingRays};
+use anyhow::Context;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+use std::path::Path;
+use wildlight_fields::{
+    Adam, AdamConfig, Checkpoint, CheckpointWriter, Checkpointable, Decay, FieldContext, LrSchedule,
+};
+use wildlight_render::{
+    OccupancyGrid, OccupancySettings, RefreshMode, Sampler, SamplerSettings, cos_anneal_ratio,
+};
+
+/// What one step measured.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct StepStats {
+    /// Step index (0-based) that was taken.
+    pub step: u64,
+    /// Weighted total loss.
+    pub loss: f64,
+    /// L1 colour loss.
+    pub color: f64,
+    /// Mask cross-entropy.
+    pub mask: f64,
+    /// Eikonal residual.
+    pub eikonal: f64,
+    /// PSNR of the batch's counted foreground channels (dB, peak 1).
+    pub psnr: f64,
+    /// NeuS sharpness s.
+    pub s: f64,
+    /// Flash gain γ.
+    pub gamma: f64,
+    /// Learning-rate factor used.
+    pub lr_factor: f64,
+    /// Samples along the batch's rays.
+    pub samples: usize,
+    /// Occupied fraction of the occupancy grid.
+    pub occupied: f64,
+    /// Whether the update was skipped (non-finite loss or gradient).
+    pub skipped: bool,
+}
+
+/// Adam group indices.
+struct Groups {
+    sdf_grid: usize,
+    sdf_mlp: usize,
+    mat_grid: usize,
+    mat_mlp: usize,
+    amb_grid: usize,
+    amb_mlp: usize,
+    sharpness: usize,
+    gain: usize,
+}
+
+/// The state of a training run.
+pub struct Trainer {
+    /// The configuration.
+    pub config: TrainConfig,
+    /// The model being trained.
+    pub model: Model,
+    /// Steps taken so far.
+    pub step: u64,
+    /// Multiplier of every learning rate, halved after each skipped step.
+    pub lr_scale: f64,
+    /// Skipped (non-finite) steps so far.
+    pub skipped_steps: u64,
+    /// The occupancy grid.
+    pub grid: OccupancyGrid,
+    /// The ray renderer's buffers.
+    pub pipeline: Pipeline,
+    rays: TrainingRays,
+    adam: Adam<f32>,
+    groups: Groups,
+    grads: ModelGrads,
+    sdf_ctx: FieldContext<f32>,
+    batch: RayBatch,
+    d_colour: Vec<[f32; 3]>,
+    d_acc: Vec<f32>,
+    schedule: LrSchedule,
+}
+
+fn mix(seed: u64, step: u64, stream: u64) -> u64 {
+    let mut x = seed
+        ^ step.wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        ^ stream.wrapping_mul(0xD1B5_4A32_D192_ED03);
+    x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    x ^ (x >> 31)
+}
+
+impl Trainer {
+    /// A new run on the capture's rays.
+    pub fn new(config: TrainConfig, rays: TrainingRays) -> anyhow::Result<Self> {
+        config.validate().map_err(anyhow::Error::msg)?;
+        let model = Model::new(&config.model, config.seed)?;
+        let mut adam = Adam::new();
+        let o = &config.optim;
+        let grid_cfg = AdamConfig {
+            lr: o.lr_grid,
+            eps: 1e-15,
+            ..AdamConfig::default()
+        };
+        let mlp_cfg = AdamConfig {
+            lr: o.lr_mlp,
+            eps: 1e-15,
+            ..AdamConfig::default()
+        };
+        let groups = Groups {
+            sdf_grid: adam.add_group("sdf.grid", model.sdf.field.grid.params.len(), grid_cfg),
+            sdf_mlp: adam.add_group("sdf.mlp", model.sdf.field.mlp.params.len(), mlp_cfg),
+            mat_grid: adam.add_group("material.grid", model.material.grid.params.len(), grid_cfg),
+            mat_mlp: adam.add_group("material.mlp", model.material.mlp.params.len(), mlp_cfg),
+            amb_grid: adam.add_group("ambient.grid", model.ambient.grid.params.len(), grid_cfg),
+            amb_mlp: adam.add_group("ambient.mlp", model.ambient.mlp.params.len(), mlp_cfg),
+            sharpness: adam.add_group(
+                "sharpness",
+                1,
+                AdamConfig {
+                    lr: o.lr_sharpness,
+                    ..AdamConfig::default()
+                },
+            ),
+            gain: adam.add_group(
+                "gain",
+                1,
+                AdamConfig {
+                    lr: o.lr_gain,
+                    ..AdamConfig::default()
+                },
+            ),
+        };
+        let grid = OccupancyGrid::new(OccupancySettings {
+            resolution: config.sampling.grid_resolution,
+            ..OccupancySettings::default()
+        })?;
+        let sampler = Sampler::new(SamplerSettings {
+            coarse_steps_per_cell: config.sampling.coarse_steps_per_cell,
+            max_coarse: config.sampling.max_coarse,
+            n_fine: config.sampling.fine_samples,
+            ..SamplerSettings::default()
+        })?;
+        let schedule = LrSchedule {
+            warmup_steps: o.warmup_steps,
+            warmup_start_factor: 0.01,
+            decay: Decay::Cosine {
+                total_steps: config.iters,
+                final_factor: o.final_lr_factor,
+            },
+        };
+        let grads = model.new_grads();
+        let mut t = Self {
+            model,
+            step: 0,
+            lr_scale: 1.0,
+            skipped_steps: 0,
+            grid,
+            pipeline: Pipeline::new(sampler),
+            rays,
+            adam,
+            groups,
+            grads,
+            sdf_ctx: FieldContext::new(),
+            batch: RayBatch::default(),
+            d_colour: Vec::new(),
+            d_acc: Vec::new(),
+            schedule,
+            config,
+        };
+        t.apply_step_schedule();
+        t.refresh_grid();
+        Ok(t)
+    }
+
+    /// The training rays.
+    pub fn rays(&self) -> &TrainingRays {
+        &self.rays
+    }
+
+    /// Activates hash levels for the current step (coarse-to-fine).
+    fn apply_step_schedule(&mut self) {
+        let o = &self.config.optim;
+        let levels = if o.c2f_start_levels == 0 {
+            usize::MAX
+        } else {
+            o.c2f_start_levels + (self.step / o.c2f_steps_per_level.max(1)) as usize
+        };
+        self.model.set_active_levels(levels, levels);
+    }
+
+    /// The finite-difference step of the normals: the cell size of the
+    /// finest active SDF level (shrinks as levels activate).
+    pub fn fd_step(&self) -> f64 {
+        let f = &self.model.sdf.field;
+        f.cell_size(f.active_levels.max(1) - 1)
+    }
+
+    /// Re-measures the occupancy grid from the current SDF.
+    pub fn refresh_grid(&mut self) {
+        let s = self.model.s();
+        let model = &self.model;
+        let ctx = &mut self.sdf_ctx;
+        self.grid.refresh(
+            |pts: &[[f32; 3]], out: &mut [f32]| eval_sdf(model, pts, out, ctx),
+            s,
+            RefreshMode::Full,
+        );
+    }
+
+    /// Takes one optimisation step.
+    pub fn step(&mut self) -> StepStats {
+        let step = self.step;
+        self.apply_step_schedule();
+        if step % self.config.sampling.grid_refresh_every == 0 {
+            self.refresh_grid();
+        } else {
+            self.grid.reclassify(self.model.s());
+        }
+        let cfg = &self.config;
+        let mut rng = Pcg64::seed_from_u64(mix(cfg.seed, step, 1));
+        self.rays.draw(
+            &mut rng,
+            cfg.batch_rays,
+            cfg.foreground_fraction,
+            &mut self.batch,
+        );
+        let eik: Vec<[f32; 3]> = (0..cfg.eikonal_points)
+            .map(|_| {
+                loop {
+                    let p: [f32; 3] = [
+                        rng.random_range(-1.2..1.2),
+                        rng.random_range(-1.2..1.2),
+                        rng.random_range(-1.2..1.2),
+                    ];
+                    if p[0] * p[0] + p[1] * p[1] + p[2] * p[2] <= 1.44 {
+                        break p;
+                    }
+                }
+            })
+            .collect();
+        let settings = PassSettings {
+            fd_step: self.fd_step(),
+            cos_anneal_ratio: cos_anneal_ratio(step, self.config.optim.cos_anneal_steps),
+            jitter_seed: Some(mix(self.config.seed, step, 2)),
+        };
+        let rays = RayInputs {
+            origins: &self.batch.origins,
+            dirs: &self.batch.dirs,
+            energy: &self.batch.energy,
+        };
+        self.pipeline
+            .forward(&self.model, &self.grid, &rays, &eik, &settings);
+
+        // Losses (SPEC §4).
+        let cfg = &self.config;
+        let n = self.batch.len();
+        self.d_colour.resize(n, [0.0; 3]);
+        self.d_acc.resize(n, 0.0);
+        let has_masks = self.rays.has_masks;
+        let counts: Vec<bool> = self.batch.mask.iter().map(|m| *m > 0.5).collect();
+        let (color, _, mse) = colour_l1(
+            &self.pipeline.colour,
+            &self.batch.target,
+            &counts,
+            self.rays.saturation,
+            cfg.loss.color as f32,
+            &mut self.d_colour,
+        );
+        let mask = if has_masks {
+            mask_bce(
+                self.pipeline.acc_weight(),
+                &self.batch.mask,
+                cfg.loss.mask as f32,
+                &mut self.d_acc,
+            )
+        } else {
+            self.d_acc.fill(0.0);
+            0.0
+        };
+        let eikonal = self.pipeline.eikonal;
+        let loss = cfg.loss.color * color + cfg.loss.mask * mask + cfg.loss.eikonal * eikonal;
+
+        self.grads.zero();
+        self.pipeline.backward(
+            &self.model,
+            &rays,
+            &self.d_colour,
+            &self.d_acc,
+            cfg.loss.eikonal as f32,
+            &settings,
+            &mut self.grads,
+        );
+        let lr_factor = self.schedule.factor(step) * self.lr_scale;
+        let skipped = !loss.is_finite() || !self.grads.all_finite();
+        if skipped {
+            // A non-finite step never reaches the parameters (or a checkpoint).
+            self.lr_scale *= 0.5;
+            self.skipped_steps += 1;
+        } else {
+            self.apply_adam(lr_factor);
+        }
+        self.step += 1;
+        StepStats {
+            step,
+            loss,
+            color,
+            mask,
+            eikonal,
+            psnr: psnr(mse, 1.0),
+            s: self.model.s() as f64,
+            gamma: self.model.gamma() as f64,
+            lr_factor,
+            samples: self.pipeline.n_samples(),
+            occupied: self.grid.occupied_fraction() as f64,
+            skipped,
+        }
+    }
+
+    fn apply_adam(&mut self, f: f64) {
+        let (m, g, gr, a) = (&mut self.model, &self.grads, &self.groups, &mut self.adam);
+        a.step(gr.sdf_grid, &mut m.sdf.field.grid.params, &g.sdf.grid, f);
+        a.step(gr.sdf_mlp, &mut m.sdf.field.mlp.params, &g.sdf.mlp, f);
+        a.step(
+            gr.mat_grid,
+            &mut m.material.grid.params,
+            &g.material.grid,
+            f,
+        );
+        a.step(gr.mat_mlp, &mut m.material.mlp.params, &g.material.mlp, f);
+        a.step(gr.amb_grid, &mut m.ambient.grid.params, &g.ambient.grid, f);
+        a.step(gr.amb_mlp, &mut m.ambient.mlp.params, &g.ambient.mlp, f);
+        let mut v = [m.sharpness];
+        a.step(gr.sharpness, &mut v, &[g.sharpness], f);
+        m.sharpness = v[0];
+        let mut lg = [m.log_gain];
+        a.step(gr.gain, &mut lg, &[g.log_gain], f);
+        m.log_gain = lg[0];
+    }
+
+    /// Writes the model, the optimiser state and the step (atomically).
+    pub fn save_checkpoint(&self, path: &Path) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            self.model.all_finite(),
+            "refusing to write a checkpoint with non-finite parameters"
+        );
+        let mut w = CheckpointWriter::new();
+        save_model(&self.model, &mut w);
+        self.adam.save_to(&mut w, "adam");
+        w.set_metadata("step", &self.step.to_string());
+        w.set_metadata("lr_scale", &format!("{:e}", self.lr_scale));
+        w.set_metadata("skipped_steps", &self.skipped_steps.to_string());
+        w.save(path)
+            .with_context(|| format!("cannot write the checkpoint {}", path.display()))
+    }
+
+    /// Restores the state written by [`Trainer::save_checkpoint`].
+    pub fn load_checkpoint(&mut self, path: &Path) -> anyhow::Result<()> {
+        let ck = Checkpoint::load(path)
+            .with_context(|| format!("cannot read the checkpoint {}", path.display()))?;
+        load_model(&mut self.model, &ck)?;
+        self.adam
+            .load_from(&ck, "adam")
+            .with_context(|| format!("{}: optimiser state", path.display()))?;
+        let meta = |key: &str| {
+            ck.metadata(key)
+                .with_context(|| format!("{}: missing metadata '{key}'", path.display()))
+        };
+        self.step = meta("step")?.parse().context("step")?;
+        self.lr_scale = meta("lr_scale")?.parse().context("lr_scale")?;
+        self.skipped_steps = meta("skipped_steps")?.parse().context("skipped_steps")?;
+        self.apply_step_schedule();
+        // The grid in use at this step was measured at the last refresh step;
+        // it is a pure function of the field at that time, so a refresh here
+        // reproduces it exactly when checkpoints fall on refresh steps.
+        self.refresh_grid();
+        Ok(())
+    }
+}
+
+/// Adds the model's parameters to a checkpoint.
+pub fn save_model(model: &Model, w: &mut CheckpointWriter) {
+    model.sdf.save_to(w, "sdf");
+    model.material.save_to(w, "material");
+    model.ambient.save_to(w, "ambient");
+    w.add("scalars", &[2], &[model.sharpness, model.log_gain]);
+}
+
+/// Reads the model's parameters from a checkpoint.
+pub fn load_model(model: &mut Model, ck: &Checkpoint) -> anyhow::Result<()> {
+    let p = ck.path().display().to_string();
+    model
+        .sdf
+        .load_from(ck, "sdf")
+        .with_context(|| format!("{p}: SDF field"))?;
+    model
+        .material
+        .load_from(ck, "material")
+        .with_context(|| format!("{p}: material field"))?;
+    model
+        .ambient
+        .load_from(ck, "ambient")
+        .with_context(|| format!("{p}: ambient field"))?;
+    let mut s = [0.0f32; 2];
+    ck.read_into("scalars", &[2], &mut s)
+        .with_context(|| format!("{p}: scalars"))?;
+    model.sharpness = s[0];
+    model.log_gain = s[1];
+    anyhow::ensure!(
+        model.all_finite(),
+        "{p}: the checkpoint holds non-finite parameters"
+    );
+    Ok(())
+}
