@@ -1,1 +1,64 @@
-//! (work in progress)
+//! Asset export (SPEC §9): from an SDF and a material field to a textured
+//! PBR asset — glTF 2.0 binary and OBJ + MTL + PNG — plus reading an
+//! exported `.glb` back and ray tracing its flash term (SPEC §2).
+//!
+//! ```no_run
+//! use wildlight_export::{AnalyticSource, ExportOptions, export_to_dir};
+//! let sphere = AnalyticSource::new(|p: glam::Vec3| p.length() - 0.5, |_| [0.5; 9]);
+//! let (files, report) = export_to_dir(&sphere, &ExportOptions::default(), "out".as_ref()).unwrap();
+//! println!("{} faces in {}", report.faces, files.glb.display());
+//! ```
+//!
+//! The trainer implements [`FieldSource`] for a trained model; everything
+//! here is evaluated in the normalized frame and written in world units
+//! through [`ExportOptions::scale_mat`].
+#![deny(missing_docs)]
+
+pub mod atlas;
+pub mod bake;
+mod error;
+pub mod gltf;
+pub mod marching;
+pub mod obj;
+pub mod pipeline;
+pub mod render;
+pub mod simplify;
+pub mod source;
+pub mod textures;
+
+pub use atlas::{AtlasOptions, TexturedMesh};
+pub use bake::{BakeOptions, MaterialTextures};
+pub use error::ExportError;
+pub use gltf::{Asset, read_glb, write_glb};
+pub use marching::{MarchingOptions, MarchingStats, extract_surface};
+pub use pipeline::{
+    ExportFiles, ExportOptions, ExportReport, Exported, export_asset, export_to_dir, write_export,
+};
+pub use render::{AssetTracer, FlashImage, FlashSettings, flash_psnr, render_source_flash};
+pub use source::{AnalyticSource, FieldSource, MAX_BATCH};
+
+use std::io::Write;
+use std::path::Path;
+
+/// Writes `bytes` to `path` atomically: `path.tmp` in the same folder,
+/// synced, then renamed over `path` (removed again on failure).
+pub(crate) fn write_file_atomically(path: &Path, bytes: &[u8]) -> Result<(), ExportError> {
+    let mut name = path
+        .file_name()
+        .map(|n| n.to_os_string())
+        .unwrap_or_default();
+    name.push(".tmp");
+    let tmp = path.with_file_name(name);
+    let result = (|| {
+        let mut file = std::fs::File::create(&tmp)?;
+        file.write_all(bytes)?;
+        file.sync_all()?;
+        drop(file);
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(ExportError::io(path, e));
+    }
+    Ok(())
+}

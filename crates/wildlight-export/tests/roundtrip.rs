@@ -1,0 +1,264 @@
+//! End-to-end checks of an export of an analytic torus: geometry, texel
+//! values, dilation, the flash round trip, files and the glTF validator.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use glam::{Mat3, Vec3};
+use wildlight_eval::{SurfaceDistanceOptions, surface_distance};
+use wildlight_export::bake::{NORMAL, rasterize, to_tangent_space};
+use wildlight_export::{
+    AssetTracer, FlashSettings, flash_psnr, read_glb, render_source_flash, write_export,
+};
+
+fn written() -> (tempfile::TempDir, wildlight_export::ExportFiles) {
+    let dir = tempfile::tempdir().unwrap();
+    let files = write_export(common::exported(), dir.path()).unwrap();
+    (dir, files)
+}
+
+/// A dense, accurate torus mesh in world units (reference for eq. 16).
+fn reference_torus_world() -> wildlight_mesh::TriMesh {
+    wildlight_eval::shapes::torus(common::MAJOR, common::MINOR, 600, 300, |_, _| 0.0)
+        .transformed(&common::scale_mat())
+}
+
+#[test]
+fn raw_mesh_lies_on_the_analytic_surface() {
+    let e = common::exported();
+    let to_normalized = common::scale_mat().inverse();
+    let voxel = 2.0 / 96.0;
+    let worst = e
+        .raw_mesh
+        .positions
+        .iter()
+        .map(|p| common::torus_sdf(to_normalized.transform_point3(*p)).abs())
+        .fold(0.0f32, f32::max);
+    // Linear interpolation of an exact SDF along grid edges: error ≪ a voxel.
+    assert!(worst < 0.02 * voxel, "worst vertex |φ| = {worst}");
+    let opts = SurfaceDistanceOptions {
+        max_pairs: 40_000,
+        ..Default::default()
+    };
+    let reference = reference_torus_world();
+    let raw = surface_distance(&e.raw_mesh, &reference, &opts).unwrap();
+    let simplified = wildlight_mesh::TriMesh::new(
+        e.asset.mesh.positions.clone(),
+        e.asset.mesh.triangles.clone(),
+    );
+    let coarse = surface_distance(&simplified, &reference, &opts).unwrap();
+    println!(
+        "eq. 16 (world units, scale 2.5): raw {:.3e}, simplified {:.3e}",
+        raw.mean, coarse.mean
+    );
+    // World units: 2.5 × normalized. Faceting of a 96³ grid is ~1e-4 voxel².
+    assert!(raw.mean < 2.5 * 1e-3, "raw mesh distance {}", raw.mean);
+    assert!(
+        coarse.mean < 2.5 * 3e-3,
+        "simplified mesh distance {}",
+        coarse.mean
+    );
+    assert!(e.asset.mesh.triangles.len() <= 8000);
+    assert!(e.raw_mesh.triangles.len() > 8000);
+}
+
+#[test]
+fn texels_hold_the_material_at_their_surface_point() {
+    let (_dir, files) = written();
+    let asset = read_glb(&files.glb).unwrap();
+    let e = common::exported();
+    let tex = &e.asset.textures;
+    let to_normalized = common::scale_mat().inverse();
+    let hits = rasterize(&e.asset.mesh, tex.width, tex.height);
+    assert!(hits.len() > 50_000, "{} covered texels", hits.len());
+    let mesh = &e.asset.mesh;
+    let mut checked = 0;
+    for h in hits.iter().step_by(97) {
+        let tri = mesh.triangles[h.triangle as usize];
+        let p: Vec3 = (0..3)
+            .map(|k| mesh.positions[tri[k] as usize] * h.bary[k])
+            .sum();
+        // Project onto the exact torus (closest point) independently of the baker.
+        let q = to_normalized.transform_point3(p);
+        let g = common::torus_gradient(q);
+        let surface = q - g * common::torus_sdf(q);
+        let want = common::material(surface);
+        let got = asset.textures.texels[h.texel as usize];
+        for k in 0..9 {
+            // 8-bit quantization (sRGB for the base colour) plus the baker's
+            // two Newton steps.
+            let tol = if k < 3 { 0.012 } else { 0.6 / 255.0 + 2e-3 };
+            assert!(
+                (got[k] - want[k]).abs() <= tol,
+                "texel {} param {k}: {} vs {}",
+                h.texel,
+                got[k],
+                want[k]
+            );
+        }
+        // The normal map holds the exact normal in the texel's tangent frame.
+        let mut n = Vec3::ZERO;
+        let mut t = Vec3::ZERO;
+        let mut w = 0.0;
+        for k in 0..3 {
+            n += mesh.normals[tri[k] as usize] * h.bary[k];
+            t += mesh.tangents[tri[k] as usize].truncate() * h.bary[k];
+            w += mesh.tangents[tri[k] as usize].w * h.bary[k];
+        }
+        let world_normal = (Mat3::from_mat4(to_normalized).transpose() * g).normalize();
+        let local = to_tangent_space(world_normal, n, t, w);
+        let stored = Vec3::new(got[NORMAL], got[NORMAL + 1], got[NORMAL + 2]);
+        assert!(
+            (stored - local).length() < 0.015,
+            "normal {stored} vs {local}"
+        );
+        checked += 1;
+    }
+    assert!(checked > 500);
+}
+
+#[test]
+fn dilation_fills_every_gutter_texel_with_surface_values() {
+    let e = common::exported();
+    let tex = &e.asset.textures;
+    let hits = rasterize(&e.asset.mesh, tex.width, tex.height);
+    let mut covered = vec![false; tex.texels.len()];
+    for h in &hits {
+        covered[h.texel as usize] = true;
+    }
+    let gutter = covered.iter().filter(|c| !**c).count();
+    assert!(gutter > 1000, "only {gutter} gutter texels");
+    // The procedural base colour red channel lies in [0.15, 0.75]; an
+    // unfilled texel would be 0.
+    for (t, c) in tex.texels.iter().zip(&covered) {
+        if !*c {
+            assert!((0.149..=0.751).contains(&t[0]), "gutter texel red {}", t[0]);
+            let n = Vec3::new(t[NORMAL], t[NORMAL + 1], t[NORMAL + 2]);
+            assert!((n.length() - 1.0).abs() < 1e-4);
+        }
+    }
+}
+
+#[test]
+fn flash_of_the_exported_asset_matches_the_source_at_30_db() {
+    let (_dir, files) = written();
+    let asset = read_glb(&files.glb).unwrap();
+    let tracer = AssetTracer::new(&asset, common::scale_mat().inverse()).unwrap();
+    let settings = FlashSettings::default();
+    let source = common::source();
+    for camera in common::cameras() {
+        let exported = tracer.render_flash(&camera, &settings);
+        let reference = render_source_flash(&source, &camera, &settings);
+        let hits = reference.hit.iter().filter(|h| **h).count();
+        assert!(
+            hits > 300,
+            "view {} sees {hits} surface pixels",
+            camera.index
+        );
+        let psnr = flash_psnr(&exported, &reference).unwrap();
+        println!(
+            "view {}: flash PSNR {psnr:.2} dB over {hits} pixels",
+            camera.index
+        );
+        assert!(psnr >= 30.0, "view {}: {psnr} dB", camera.index);
+    }
+}
+
+#[test]
+fn files_are_complete_and_no_temporary_file_is_left() {
+    let (dir, files) = written();
+    for name in [
+        "model.glb",
+        "model.obj",
+        "model.mtl",
+        "mesh_raw.ply",
+        "base_color.png",
+        "roughness.png",
+        "metallic.png",
+        "specular.png",
+        "clearcoat.png",
+        "clearcoat_gloss.png",
+        "subsurface.png",
+        "normal.png",
+    ] {
+        assert!(dir.path().join(name).is_file(), "{name} missing");
+    }
+    let leftovers: Vec<PathBuf> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+    let e = common::exported();
+    let obj = wildlight_mesh::TriMesh::read(&files.obj).unwrap();
+    assert_eq!(obj.triangles.len(), e.asset.mesh.triangles.len());
+    let raw = wildlight_mesh::TriMesh::read(&files.raw_ply).unwrap();
+    assert_eq!(raw.triangles.len(), e.raw_mesh.triangles.len());
+    let mtl = std::fs::read_to_string(dir.path().join("model.mtl")).unwrap();
+    for line in mtl
+        .lines()
+        .filter(|l| l.starts_with("map_") || l.starts_with("norm"))
+    {
+        let file = line.split_whitespace().last().unwrap();
+        assert!(dir.path().join(file).is_file(), "{line}");
+    }
+    // The .glb reads back with the same mesh.
+    let asset = read_glb(&files.glb).unwrap();
+    assert_eq!(asset.mesh, e.asset.mesh);
+    assert_eq!(
+        (asset.textures.width, asset.textures.height),
+        (e.asset.textures.width, e.asset.textures.height)
+    );
+}
+
+/// Where the Khronos validator (npm package `gltf-validator`) is, if anywhere.
+fn validator_dir() -> Option<PathBuf> {
+    if let Ok(dir) = std::env::var("GLTF_VALIDATOR") {
+        return Some(PathBuf::from(dir));
+    }
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../node_modules/gltf-validator");
+    repo.join("package.json").is_file().then_some(repo)
+}
+
+#[test]
+fn glb_passes_the_khronos_validator() {
+    let Some(validator) = validator_dir() else {
+        println!(
+            "SKIPPED: gltf-validator not found (set GLTF_VALIDATOR or npm install --prefix <repo> gltf-validator)"
+        );
+        return;
+    };
+    if std::process::Command::new("node")
+        .arg("--version")
+        .output()
+        .is_err()
+    {
+        println!("SKIPPED: node is not installed");
+        return;
+    }
+    let (dir, files) = written();
+    let script = dir.path().join("validate.js");
+    std::fs::write(
+        &script,
+        r#"const fs = require('fs');
+const validator = require(process.argv[2]);
+const bytes = new Uint8Array(fs.readFileSync(process.argv[3]));
+validator.validateBytes(bytes, {maxIssues: 50}).then((report) => {
+  console.log(JSON.stringify(report.issues, null, 1));
+  process.exit(report.issues.numErrors > 0 ? 1 : 0);
+}, (err) => { console.error(err); process.exit(2); });
+"#,
+    )
+    .unwrap();
+    let out = std::process::Command::new("node")
+        .arg(&script)
+        .arg(validator.canonicalize().unwrap())
+        .arg(&files.glb)
+        .output()
+        .unwrap();
+    let report = String::from_utf8_lossy(&out.stdout);
+    println!("{report}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "validator reported errors:\n{report}");
+    assert!(report.contains("\"numErrors\": 0"), "{report}");
+}
