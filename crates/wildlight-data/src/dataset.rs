@@ -63,6 +63,18 @@ pub enum ImageSource {
     Npy,
 }
 
+impl ImageSource {
+    /// A short description for reports.
+    pub fn describe(&self) -> &'static str {
+        match self {
+            ImageSource::Exr => "EXR (linear float)",
+            ImageSource::Png => "PNG (8/16-bit)",
+            ImageSource::Mixed => "EXR and PNG",
+            ImageSource::Npy => "images.npy",
+        }
+    }
+}
+
 /// One view: its camera, its photo and its optional mask.
 #[derive(Clone, Debug, PartialEq)]
 pub struct View {
