@@ -38,7 +38,7 @@ pub use adam::{Adam, AdamConfig, AdamGroup, Decay, LrSchedule};
 pub use checkpoint::{CHECKPOINT_FORMAT_VERSION, Checkpoint, CheckpointWriter, Checkpointable};
 pub use error::FieldError;
 pub use hash_grid::{HashGrid, HashGridConfig};
-pub use mlp::{CHUNK_ROWS, Mlp, MlpConfig, MlpContext};
+pub use mlp::{CHUNK_ROWS, Mlp, MlpChunk, MlpConfig, MlpContext, MlpScratch};
 pub use neural_field::{FieldContext, FieldGrads, NeuralField, NeuralFieldConfig};
 pub use real::Real;
 pub use sdf_field::{FdScheme, NormalContext, SdfField, SdfFieldConfig};

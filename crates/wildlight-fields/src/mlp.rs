@@ -66,8 +66,6 @@ pub struct MlpChunk<T> {
     pub input: Vec<T>,
     /// Output of each layer (`rows × width`), after its activation.
     pub acts: Vec<Vec<T>>,
-    delta: Vec<T>,
-    delta_prev: Vec<T>,
     /// Gradient w.r.t. the input rows, written by [`Mlp::backward_chunk`].
     pub d_input: Vec<T>,
     /// This chunk's parameter-gradient partial, written by [`Mlp::backward_chunk`].
@@ -79,6 +77,14 @@ impl<T: Real> MlpChunk<T> {
     pub fn output(&self) -> &[T] {
         self.acts.last().map(|a| a.as_slice()).unwrap_or(&[])
     }
+}
+
+/// Scratch of the backward pass of one chunk (per worker, not per chunk, so
+/// that large batches do not hold it for every chunk).
+#[derive(Clone, Debug, Default)]
+pub struct MlpScratch<T> {
+    delta: Vec<T>,
+    delta_prev: Vec<T>,
 }
 
 /// Buffers of a batched forward/backward through an [`Mlp`] (reused across calls).
@@ -174,19 +180,11 @@ impl<T: Real> Mlp<T> {
     /// Sizes the buffers of `ch` for `rows` rows (no allocation when already large enough).
     pub fn prepare_chunk(&self, ch: &mut MlpChunk<T>, rows: usize) {
         ch.rows = rows;
-        let max_w = self
-            .layers
-            .iter()
-            .map(|l| l.n_out.max(l.n_in))
-            .max()
-            .unwrap_or(0);
         ch.input.resize(rows * self.config.n_input, T::ZERO);
         ch.acts.resize_with(self.layers.len(), Vec::new);
         for (a, l) in ch.acts.iter_mut().zip(&self.layers) {
             a.resize(rows * l.n_out, T::ZERO);
         }
-        ch.delta.resize(rows * max_w, T::ZERO);
-        ch.delta_prev.resize(rows * max_w, T::ZERO);
         ch.d_input.resize(rows * self.config.n_input, T::ZERO);
         ch.grad.resize(self.params.len(), T::ZERO);
     }
@@ -223,20 +221,30 @@ impl<T: Real> Mlp<T> {
     /// (`rows × n_output`, w.r.t. the activated outputs), overwrites `ch.grad`
     /// with this chunk's parameter gradient and `ch.d_input` with the gradient
     /// w.r.t. the inputs.
-    pub fn backward_chunk(&self, ch: &mut MlpChunk<T>, d_out: &[T]) {
+    pub fn backward_chunk(&self, ch: &mut MlpChunk<T>, d_out: &[T], sc: &mut MlpScratch<T>) {
         let rows = ch.rows;
+        let max_w = self
+            .layers
+            .iter()
+            .map(|l| l.n_out.max(l.n_in))
+            .max()
+            .unwrap_or(0);
+        if sc.delta.len() < rows * max_w {
+            sc.delta.resize(rows * max_w, T::ZERO);
+            sc.delta_prev.resize(rows * max_w, T::ZERO);
+        }
         let n_layers = self.layers.len();
         ch.grad.fill(T::ZERO);
         let last = self.layers[n_layers - 1];
-        ch.delta[..rows * last.n_out].copy_from_slice(&d_out[..rows * last.n_out]);
+        sc.delta[..rows * last.n_out].copy_from_slice(&d_out[..rows * last.n_out]);
         self.activation(n_layers - 1).backward_in_place(
             &ch.acts[n_layers - 1][..rows * last.n_out],
-            &mut ch.delta[..rows * last.n_out],
+            &mut sc.delta[..rows * last.n_out],
         );
         for i in (0..n_layers).rev() {
             let l = self.layers[i];
             let input: &[T] = if i == 0 { &ch.input } else { &ch.acts[i - 1] };
-            let delta = &ch.delta[..rows * l.n_out];
+            let delta = &sc.delta[..rows * l.n_out];
             // dW += deltaᵀ · input
             let (gw, gb) =
                 ch.grad[l.weight_offset..l.bias_offset + l.n_out].split_at_mut(l.n_in * l.n_out);
@@ -262,7 +270,7 @@ impl<T: Real> Mlp<T> {
             let dst: &mut [T] = if i == 0 {
                 &mut ch.d_input[..rows * l.n_in]
             } else {
-                &mut ch.delta_prev[..rows * l.n_in]
+                &mut sc.delta_prev[..rows * l.n_in]
             };
             gemm(
                 rows,
@@ -279,9 +287,9 @@ impl<T: Real> Mlp<T> {
             if i > 0 {
                 self.activation(i - 1).backward_in_place(
                     &ch.acts[i - 1][..rows * l.n_in],
-                    &mut ch.delta_prev[..rows * l.n_in],
+                    &mut sc.delta_prev[..rows * l.n_in],
                 );
-                std::mem::swap(&mut ch.delta, &mut ch.delta_prev);
+                std::mem::swap(&mut sc.delta, &mut sc.delta_prev);
             }
         }
     }
@@ -334,7 +342,9 @@ impl<T: Real> Mlp<T> {
         ctx.chunks
             .par_iter_mut()
             .zip(d_out.par_chunks(CHUNK_ROWS * n_out))
-            .for_each(|(ch, d)| self.backward_chunk(ch, d));
+            .for_each_init(MlpScratch::default, |sc, (ch, d)| {
+                self.backward_chunk(ch, d, sc)
+            });
         Self::reduce_chunk_grads(&ctx.chunks, grad);
         if let Some(di) = d_input {
             assert_eq!(di.len(), ctx.n * n_in, "mlp backward: d_input length");

@@ -12,7 +12,7 @@
 use crate::activation::Activation;
 use crate::error::FieldError;
 use crate::hash_grid::{HashGrid, HashGridConfig};
-use crate::mlp::{CHUNK_ROWS, Mlp, MlpChunk, MlpConfig};
+use crate::mlp::{CHUNK_ROWS, Mlp, MlpChunk, MlpConfig, MlpScratch};
 use crate::real::Real;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -226,7 +226,9 @@ impl<T: Real> NeuralField<T> {
         ctx.chunks
             .par_iter_mut()
             .zip(d_out.par_chunks(CHUNK_ROWS * n_out))
-            .for_each(|(ch, d)| self.mlp.backward_chunk(ch, d));
+            .for_each_init(MlpScratch::default, |sc, (ch, d)| {
+                self.mlp.backward_chunk(ch, d, sc)
+            });
         Mlp::reduce_chunk_grads(&ctx.chunks, &mut grads.mlp);
         let n_in = self.mlp.config().n_input;
         let enc_col = self.encoding_column();
