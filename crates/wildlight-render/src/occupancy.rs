@@ -85,6 +85,25 @@ pub enum CellState {
     Inside,
 }
 
+/// Everything a grid's classification depends on besides its settings: the
+/// stored SDF values, the band they were classified with and the refresh
+/// counter. Saved with a training checkpoint, it restores a grid
+/// ([`OccupancyGrid::restore`]) that classifies, marches and refreshes
+/// bit-identically to the original.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OccupancySnapshot {
+    /// Cells per axis of the grid the values come from.
+    pub resolution: usize,
+    /// SDF last measured at each cell centre, `resolution³` values in the
+    /// grid's linear cell order ([`OccupancyGrid::cell_index`]); cells
+    /// outside the unit sphere hold +∞.
+    pub sdf: Vec<f32>,
+    /// The band the classification used (+∞ before the first refresh).
+    pub band: f32,
+    /// Number of refreshes done (drives the partial-refresh rotation).
+    pub round: u64,
+}
+
 /// The occupancy grid (see the module docs).
 #[derive(Clone, Debug)]
 pub struct OccupancyGrid {
@@ -260,6 +279,86 @@ impl OccupancyGrid {
     pub fn occupied_fraction(&self) -> f32 {
         let (s, i, e) = self.counts();
         (s + i) as f32 / (s + i + e).max(1) as f32
+    }
+
+    /// The SDF value last measured at each cell centre, in linear cell order
+    /// (+∞ for cells outside the unit sphere, 0 before the first refresh).
+    pub fn sdf_values(&self) -> &[f32] {
+        &self.sdf
+    }
+
+    /// Number of refreshes done so far (drives the partial-refresh rotation).
+    pub fn refresh_round(&self) -> u64 {
+        self.round
+    }
+
+    /// A copy of the state a checkpoint needs to restore this grid exactly.
+    pub fn snapshot(&self) -> OccupancySnapshot {
+        OccupancySnapshot {
+            resolution: self.settings.resolution,
+            sdf: self.sdf.clone(),
+            band: self.band,
+            round: self.round,
+        }
+    }
+
+    /// Restores the SDF values, band and refresh counter of `snapshot` and
+    /// reclassifies with the saved band, so the grid classifies, marches and
+    /// refreshes exactly as the grid the snapshot was taken from (given the
+    /// same settings). Values of cells outside the unit sphere are ignored.
+    ///
+    /// # Errors
+    /// If the resolution or the number of values does not match this grid,
+    /// an in-sphere value is not finite, or the band is NaN or negative; the
+    /// grid is then left unchanged.
+    pub fn restore(&mut self, snapshot: &OccupancySnapshot) -> Result<(), RenderError> {
+        check(
+            snapshot.resolution == self.settings.resolution,
+            "occupancy snapshot resolution",
+            snapshot.resolution,
+            "differs from this grid's resolution",
+        )?;
+        self.set_sdf_values(&snapshot.sdf, snapshot.band, snapshot.round)
+    }
+
+    /// Sets the stored SDF values (in linear cell order, `resolution³` of
+    /// them), the band and the refresh counter, then reclassifies every cell
+    /// with `band` (use [`Self::band`] of the current sharpness when the
+    /// saved band is not at hand; [`Self::reclassify`] can change it later).
+    ///
+    /// # Errors
+    /// As [`Self::restore`]; the grid is then left unchanged.
+    pub fn set_sdf_values(
+        &mut self,
+        values: &[f32],
+        band: f32,
+        round: u64,
+    ) -> Result<(), RenderError> {
+        check(
+            values.len() == self.sdf.len(),
+            "occupancy sdf values",
+            values.len(),
+            "count must be resolution³ of this grid",
+        )?;
+        if let Some(i) = (0..values.len()).find(|&i| self.in_sphere[i] && !values[i].is_finite()) {
+            return Err(RenderError::InvalidSetting {
+                name: "occupancy sdf values",
+                value: format!("{} at cell {i}", values[i]),
+                reason: "cells inside the unit sphere must hold finite values",
+            });
+        }
+        check(
+            band >= 0.0,
+            "occupancy band",
+            band,
+            "must be ≥ 0 (or +∞), not NaN",
+        )?;
+        for ((dst, &v), &inside) in self.sdf.iter_mut().zip(values).zip(&self.in_sphere) {
+            *dst = if inside { v } else { f32::INFINITY };
+        }
+        self.round = round;
+        self.classify(band);
+        Ok(())
     }
 
     /// Re-measures cells with `sdf_fn` (which fills φ for a batch of

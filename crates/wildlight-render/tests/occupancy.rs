@@ -5,6 +5,7 @@ mod common;
 
 use common::Torus;
 use wildlight_render::occupancy::{CellState, OccupancyGrid, OccupancySettings, RefreshMode};
+use wildlight_render::sampler::{CoarseSamples, RaySamples, Rays, Sampler, SamplerSettings};
 
 fn sphere_sdf(radius: f32) -> impl FnMut(&[[f32; 3]], &mut [f32]) {
     move |p: &[[f32; 3]], out: &mut [f32]| {
@@ -249,4 +250,157 @@ fn sampled_intervals_agree_with_point_lookups() {
         }
     }
     assert!(checked > 100_000, "checked {checked}");
+}
+
+/// A torus SDF (f32 batch closure) with its centre shifted along x.
+fn torus_sdf(torus: Torus, shift: f64) -> impl Fn(&[[f32; 3]], &mut [f32]) {
+    move |p: &[[f32; 3]], out: &mut [f32]| {
+        for (o, x) in out.iter_mut().zip(p) {
+            let q = [x[0] as f64 - shift, x[1] as f64, x[2] as f64];
+            *o = torus.eval(q).0 as f32;
+        }
+    }
+}
+
+/// Every cell state, the march visits and the sampler's output of `a` and
+/// `b` are bit-identical.
+fn assert_grids_identical(
+    a: &OccupancyGrid,
+    b: &OccupancyGrid,
+    sdf: impl Fn(&[[f32; 3]], &mut [f32]),
+    s: f32,
+) {
+    let n = a.resolution().pow(3);
+    assert_eq!(a.current_band().to_bits(), b.current_band().to_bits());
+    assert_eq!(a.refresh_round(), b.refresh_round());
+    assert_eq!(a.counts(), b.counts());
+    for i in 0..n {
+        assert_eq!(a.state(i), b.state(i), "cell {i}");
+    }
+    let mut rng = common::TestRng(5);
+    let mut origins = Vec::new();
+    let mut dirs = Vec::new();
+    for _ in 0..300 {
+        let o = [0; 3].map(|_| rng.uniform(-2.0, 2.0) as f32);
+        let aim = [0; 3].map(|_| rng.uniform(-0.5, 0.5) as f32);
+        let d = [aim[0] - o[0], aim[1] - o[1], aim[2] - o[2]];
+        let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        let d = d.map(|x| x / l);
+        let Some([near, far]) = wildlight_render::sphere_chord(o, d, 1.0) else {
+            continue;
+        };
+        let walk = |g: &OccupancyGrid| {
+            let mut v = Vec::new();
+            g.march(o, d, near, far, |t0, t1, st| {
+                v.push((t0.to_bits(), t1.to_bits(), st));
+                true
+            });
+            v
+        };
+        let visits = walk(a);
+        assert!(!visits.is_empty());
+        assert_eq!(visits, walk(b));
+        origins.push(o);
+        dirs.push(d);
+    }
+    let rays = Rays {
+        origins: &origins,
+        dirs: &dirs,
+    };
+    let run = |g: &OccupancyGrid| {
+        let mut sampler = Sampler::new(SamplerSettings::default()).unwrap();
+        let (mut coarse, mut out) = (CoarseSamples::default(), RaySamples::default());
+        sampler.sample(g, &rays, &sdf, s, Some(3), &mut coarse, &mut out);
+        out
+    };
+    let (sa, sb) = (run(a), run(b));
+    assert!(sa.len() > 1000, "{} samples", sa.len());
+    assert_eq!(sa.offsets, sb.offsets);
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&sa.t), bits(&sb.t));
+    assert_eq!(bits(&sa.delta), bits(&sb.delta));
+}
+
+#[test]
+fn a_restored_grid_classifies_marches_samples_and_refreshes_like_the_original() {
+    let torus = Torus::standard();
+    let settings = OccupancySettings {
+        resolution: 48,
+        ..Default::default()
+    };
+    let mut grid = OccupancyGrid::new(settings).unwrap();
+    // A history of refreshes: full, then partial ones of a moving surface
+    // with a changing sharpness (the rotation phase depends on the count).
+    grid.refresh(torus_sdf(torus, 0.0), 200.0, RefreshMode::Full);
+    for k in 1..=3 {
+        grid.refresh(
+            torus_sdf(torus, 0.004 * k as f64),
+            200.0 + 100.0 * k as f32,
+            RefreshMode::Partial { stride: 8 },
+        );
+    }
+    grid.reclassify(650.0);
+    let snapshot = grid.snapshot();
+    assert_eq!(snapshot.round, 4);
+    assert_eq!(snapshot.sdf.as_slice(), grid.sdf_values());
+
+    let mut restored = OccupancyGrid::new(settings).unwrap();
+    restored.restore(&snapshot).unwrap();
+    assert_eq!(restored.snapshot(), snapshot);
+    assert_grids_identical(&grid, &restored, torus_sdf(torus, 0.012), 650.0);
+
+    // The next partial refreshes (same rotation phase) agree as well.
+    for k in 4..=5 {
+        let f = torus_sdf(torus, 0.004 * k as f64);
+        let na = grid.refresh(&f, 700.0, RefreshMode::Partial { stride: 8 });
+        let nb = restored.refresh(&f, 700.0, RefreshMode::Partial { stride: 8 });
+        assert_eq!(na, nb);
+    }
+    assert_grids_identical(&grid, &restored, torus_sdf(torus, 0.02), 700.0);
+
+    // set_sdf_values with the band of the current sharpness is the same as
+    // restoring and reclassifying.
+    let mut other = OccupancyGrid::new(settings).unwrap();
+    other
+        .set_sdf_values(grid.sdf_values(), grid.band(700.0), grid.refresh_round())
+        .unwrap();
+    assert_grids_identical(&grid, &other, torus_sdf(torus, 0.02), 700.0);
+}
+
+#[test]
+fn restoring_a_bad_snapshot_is_an_error_and_changes_nothing() {
+    let settings = OccupancySettings {
+        resolution: 16,
+        ..Default::default()
+    };
+    let mut grid = OccupancyGrid::new(settings).unwrap();
+    grid.refresh(sphere_sdf(0.5), 300.0, RefreshMode::Full);
+    let good = grid.snapshot();
+
+    let mut short = good.clone();
+    short.sdf.pop();
+    let mut nan_inside = good.clone();
+    let centre = grid.cell_index(8, 8, 8);
+    nan_inside.sdf[centre] = f32::NAN;
+    let mut nan_band = good.clone();
+    nan_band.band = f32::NAN;
+    let mut negative_band = good.clone();
+    negative_band.band = -0.1;
+    let mut other_resolution = OccupancyGrid::new(OccupancySettings {
+        resolution: 20,
+        ..settings
+    })
+    .unwrap()
+    .snapshot();
+    other_resolution.band = 0.1;
+    for bad in [short, nan_inside, nan_band, negative_band, other_resolution] {
+        let err = grid.restore(&bad).unwrap_err();
+        assert!(err.to_string().contains("occupancy"), "{err}");
+        assert_eq!(grid.snapshot(), good);
+    }
+    // Values outside the sphere are ignored (stored as +∞).
+    let mut corner = good.clone();
+    corner.sdf[grid.cell_index(0, 0, 0)] = f32::NAN;
+    grid.restore(&corner).unwrap();
+    assert_eq!(grid.snapshot(), good);
 }
