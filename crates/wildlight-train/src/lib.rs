@@ -13,6 +13,7 @@
 //! - [`run`]: the run folder and the training loop behind `wildlight train`.
 
 pub mod config;
+pub mod float;
 pub mod loss;
 pub mod model;
 pub mod pipeline;

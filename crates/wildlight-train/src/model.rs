@@ -3,6 +3,7 @@
 //! gradient buffers and optimiser groups.
 
 use crate::config::ModelConfig;
+use crate::float::{Float, finite};
 use wildlight_fields::{Activation, FieldGrads, NeuralField, NeuralFieldConfig, SdfField};
 use wildlight_material::PARAM_COUNT;
 use wildlight_render::SH_DEG4_LEN;
@@ -14,62 +15,63 @@ pub fn ambient_extra_inputs(geometry_features: usize) -> usize {
     geometry_features + 3 + SH_DEG4_LEN + PARAM_COUNT
 }
 
-/// The learned model.
+/// The learned model, generic over the float type: `f32` for training and
+/// rendering, `f64` for the finite-difference checks of the whole pipeline.
 #[derive(Clone, Debug)]
-pub struct Model {
+pub struct Model<T = f32> {
     /// Its settings.
     pub config: ModelConfig,
     /// Signed distance φ and geometry features.
-    pub sdf: SdfField<f32>,
+    pub sdf: SdfField<T>,
     /// Material parameters Θ = sigmoid(outputs) (SPEC §3).
-    pub material: NeuralField<f32>,
+    pub material: NeuralField<T>,
     /// Ambient radiance a ≥ 0 (softplus outputs).
-    pub ambient: NeuralField<f32>,
+    pub ambient: NeuralField<T>,
     /// NeuS sharpness parameter v, s = exp(10 v).
-    pub sharpness: f32,
+    pub sharpness: T,
     /// Flash gain parameter g, γ = exp(g) > 0.
-    pub log_gain: f32,
+    pub log_gain: T,
 }
 
 /// Gradients of every parameter of a [`Model`].
 #[derive(Clone, Debug)]
-pub struct ModelGrads {
+pub struct ModelGrads<T = f32> {
     /// Of the SDF field.
-    pub sdf: FieldGrads<f32>,
+    pub sdf: FieldGrads<T>,
     /// Of the material field.
-    pub material: FieldGrads<f32>,
+    pub material: FieldGrads<T>,
     /// Of the ambient field.
-    pub ambient: FieldGrads<f32>,
+    pub ambient: FieldGrads<T>,
     /// Of v.
-    pub sharpness: f32,
+    pub sharpness: T,
     /// Of g.
-    pub log_gain: f32,
+    pub log_gain: T,
 }
 
-impl ModelGrads {
+impl<T: Float> ModelGrads<T> {
     /// Sets every gradient to zero.
     pub fn zero(&mut self) {
         self.sdf.zero();
         self.material.zero();
         self.ambient.zero();
-        self.sharpness = 0.0;
-        self.log_gain = 0.0;
+        self.sharpness = T::ZERO;
+        self.log_gain = T::ZERO;
     }
 
     /// Whether every gradient is finite.
     pub fn all_finite(&self) -> bool {
-        let f = |g: &FieldGrads<f32>| {
-            g.grid.iter().all(|v| v.is_finite()) && g.mlp.iter().all(|v| v.is_finite())
+        let f = |g: &FieldGrads<T>| {
+            g.grid.iter().all(|v| finite(*v)) && g.mlp.iter().all(|v| finite(*v))
         };
         f(&self.sdf)
             && f(&self.material)
             && f(&self.ambient)
-            && self.sharpness.is_finite()
-            && self.log_gain.is_finite()
+            && finite(self.sharpness)
+            && finite(self.log_gain)
     }
 }
 
-impl Model {
+impl<T: Float> Model<T> {
     /// A freshly initialised model (the SDF starts as a sphere).
     pub fn new(config: &ModelConfig, seed: u64) -> anyhow::Result<Self> {
         let sdf = SdfField::new(&config.sdf_field(), seed)?;
@@ -104,29 +106,29 @@ impl Model {
             sdf,
             material,
             ambient,
-            sharpness: config.init_sharpness,
-            log_gain: config.init_log_gain,
+            sharpness: T::from_f64(config.init_sharpness as f64),
+            log_gain: T::from_f64(config.init_log_gain as f64),
         })
     }
 
     /// Zeroed gradient buffers shaped like the parameters.
-    pub fn new_grads(&self) -> ModelGrads {
+    pub fn new_grads(&self) -> ModelGrads<T> {
         ModelGrads {
             sdf: self.sdf.new_grads(),
             material: self.material.new_grads(),
             ambient: self.ambient.new_grads(),
-            sharpness: 0.0,
-            log_gain: 0.0,
+            sharpness: T::ZERO,
+            log_gain: T::ZERO,
         }
     }
 
     /// The NeuS sharpness s = exp(10 v).
-    pub fn s(&self) -> f32 {
+    pub fn s(&self) -> T {
         wildlight_render::sharpness(self.sharpness).0
     }
 
     /// The flash gain γ = exp(g).
-    pub fn gamma(&self) -> f32 {
+    pub fn gamma(&self) -> T {
         wildlight_render::gain(self.log_gain)
     }
 
@@ -138,14 +140,13 @@ impl Model {
 
     /// Whether every parameter is finite.
     pub fn all_finite(&self) -> bool {
-        let f = |n: &NeuralField<f32>| {
-            n.grid.params.iter().all(|v| v.is_finite())
-                && n.mlp.params.iter().all(|v| v.is_finite())
+        let f = |n: &NeuralField<T>| {
+            n.grid.params.iter().all(|v| finite(*v)) && n.mlp.params.iter().all(|v| finite(*v))
         };
         f(&self.sdf.field)
             && f(&self.material)
             && f(&self.ambient)
-            && self.sharpness.is_finite()
-            && self.log_gain.is_finite()
+            && finite(self.sharpness)
+            && finite(self.log_gain)
     }
 }

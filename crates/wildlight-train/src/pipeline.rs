@@ -12,6 +12,7 @@
 //! weight) and accumulates the gradients of every model parameter.
 //! Buffers are kept between calls; nothing is allocated per sample.
 
+use crate::float::{Float, finite, max, norm3, of, to_f64};
 use crate::model::{Model, ModelGrads};
 use wildlight_fields::{FdScheme, FieldContext, NormalContext};
 use wildlight_material::PARAM_COUNT;
@@ -22,18 +23,55 @@ use wildlight_render::{
 };
 
 /// Radius of the ball in which the eikonal term applies (SPEC §4).
-pub const EIKONAL_RADIUS: f32 = 1.2;
+pub const EIKONAL_RADIUS: f64 = 1.2;
+
+/// Samples along a batch of rays, packed by ray (see `wildlight_render::packing`).
+#[derive(Clone, Debug, Default)]
+pub struct Samples<T> {
+    /// Ray `r` owns samples `offsets[r]..offsets[r + 1]`.
+    pub offsets: Vec<u32>,
+    /// Distance of each sample from the ray origin.
+    pub t: Vec<T>,
+    /// Length of each sample's section.
+    pub delta: Vec<T>,
+    /// Position of each sample.
+    pub positions: Vec<[T; 3]>,
+}
+
+impl<T: Float> Samples<T> {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    /// Whether there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    /// Copies the sampler's output.
+    pub fn set_from(&mut self, s: &RaySamples) {
+        let c = |v: f32| of::<T>(v as f64);
+        self.offsets.clone_from(&s.offsets);
+        self.t.clear();
+        self.t.extend(s.t.iter().map(|&v| c(v)));
+        self.delta.clear();
+        self.delta.extend(s.delta.iter().map(|&v| c(v)));
+        self.positions.clear();
+        self.positions.extend(s.positions.iter().map(|p| p.map(c)));
+    }
+}
 
 /// The rays of one pass (normalized frame) and the flash energy of each
 /// ray's image.
 #[derive(Clone, Copy, Debug)]
-pub struct RayInputs<'a> {
+pub struct RayInputs<'a, T = f32> {
     /// Camera centres.
-    pub origins: &'a [[f32; 3]],
+    pub origins: &'a [[T; 3]],
     /// Unit directions.
-    pub dirs: &'a [[f32; 3]],
+    pub dirs: &'a [[T; 3]],
     /// `light_energy` of each ray's image (zeros: flash off).
-    pub energy: &'a [[f32; 3]],
+    pub energy: &'a [[T; 3]],
 }
 
 /// Per-pass settings that change during training.
@@ -49,47 +87,53 @@ pub struct PassSettings {
 
 /// Buffers and results of a pass.
 #[derive(Default)]
-pub struct Pipeline {
+pub struct Pipeline<T = f32> {
     sampler: Option<Sampler>,
     coarse: CoarseSamples,
+    raw_samples: RaySamples,
     /// The samples of the last pass.
-    pub samples: RaySamples,
+    pub samples: Samples<T>,
     sdf_ctx: FieldContext<f32>,
-    normal_ctx: NormalContext<f32>,
-    points: Vec<[f32; 3]>,
+    normal_ctx: NormalContext<T>,
+    points: Vec<[T; 3]>,
     n_samples: usize,
     /// NeuS alphas, weights and Σw of the last pass.
-    pub weights: NeusWeights<f32>,
-    material_ctx: FieldContext<f32>,
-    ambient_ctx: FieldContext<f32>,
-    ambient_extra: Vec<f32>,
-    flash_cache: FlashCache<f32>,
+    pub weights: NeusWeights<T>,
+    material_ctx: FieldContext<T>,
+    ambient_ctx: FieldContext<T>,
+    ambient_extra: Vec<T>,
+    flash_cache: FlashCache<T>,
     /// Material parameters at each sample.
-    pub theta: Vec<[f32; PARAM_COUNT]>,
+    pub theta: Vec<[T; PARAM_COUNT]>,
     /// Unit normals at each sample.
-    pub normals: Vec<[f32; 3]>,
+    pub normals: Vec<[T; 3]>,
     /// Ambient radiance at each sample.
-    pub ambient: Vec<[f32; 3]>,
+    pub ambient: Vec<[T; 3]>,
     /// Flash radiance at each sample.
-    pub flash: Vec<[f32; 3]>,
-    sample_colour: Vec<[f32; 3]>,
+    pub flash: Vec<[T; 3]>,
+    sample_colour: Vec<[T; 3]>,
     /// Composited colour of each ray.
-    pub colour: Vec<[f32; 3]>,
+    pub colour: Vec<[T; 3]>,
     /// Mean eikonal residual (|∇φ| − 1)² over the points inside the ball.
     pub eikonal: f64,
     eikonal_count: usize,
     // backward buffers
-    d_weight: Vec<f32>,
-    d_colour_sample: Vec<[f32; 3]>,
-    d_theta: Vec<[f32; PARAM_COUNT]>,
-    d_grad: Vec<[f32; 3]>,
-    d_sdf: Vec<f32>,
-    d_features: Vec<f32>,
-    d_ambient_extra: Vec<f32>,
+    d_weight: Vec<T>,
+    d_colour_sample: Vec<[T; 3]>,
+    d_theta: Vec<[T; PARAM_COUNT]>,
+    d_grad: Vec<[T; 3]>,
+    d_sdf: Vec<T>,
+    d_features: Vec<T>,
+    d_ambient_extra: Vec<T>,
 }
 
 /// Fills `out` with the SDF at `pts` (no normals, no gradients).
-pub fn eval_sdf(model: &Model, pts: &[[f32; 3]], out: &mut [f32], ctx: &mut FieldContext<f32>) {
+pub fn eval_sdf<T: Float>(
+    model: &Model<T>,
+    pts: &[[T; 3]],
+    out: &mut [T],
+    ctx: &mut FieldContext<T>,
+) {
     model.sdf.forward(pts, ctx);
     let stride = model.sdf.n_output();
     for (o, row) in out.iter_mut().zip(ctx.output().chunks_exact(stride)) {
@@ -97,18 +141,13 @@ pub fn eval_sdf(model: &Model, pts: &[[f32; 3]], out: &mut [f32], ctx: &mut Fiel
     }
 }
 
-impl Pipeline {
+impl Pipeline<f32> {
     /// An empty pipeline; `sampler` is the fast sampler to use.
     pub fn new(sampler: Sampler) -> Self {
         Self {
             sampler: Some(sampler),
             ..Self::default()
         }
-    }
-
-    /// Number of samples of the last pass.
-    pub fn n_samples(&self) -> usize {
-        self.n_samples
     }
 
     /// Forward pass. `eikonal_points` are extra points (beyond the samples)
@@ -138,18 +177,26 @@ impl Pipeline {
             s,
             settings.jitter_seed,
             &mut self.coarse,
-            &mut self.samples,
+            &mut self.raw_samples,
         );
+        self.samples.set_from(&self.raw_samples);
         self.forward_samples(model, rays, eikonal_points, settings);
+    }
+}
+
+impl<T: Float + Default> Pipeline<T> {
+    /// Number of samples of the last pass.
+    pub fn n_samples(&self) -> usize {
+        self.n_samples
     }
 
     /// Forward pass over samples already in `self.samples` (set by
     /// [`Pipeline::forward`] or by a caller, e.g. the dense reference sampler).
     pub fn forward_samples(
         &mut self,
-        model: &Model,
-        rays: &RayInputs<'_>,
-        eikonal_points: &[[f32; 3]],
+        model: &Model<T>,
+        rays: &RayInputs<'_, T>,
+        eikonal_points: &[[T; 3]],
         settings: &PassSettings,
     ) {
         let n = self.samples.len();
@@ -195,7 +242,7 @@ impl Pipeline {
             self.material_ctx
                 .output()
                 .chunks_exact(PARAM_COUNT)
-                .map(|r| <[f32; PARAM_COUNT]>::try_from(r).expect("9 outputs")),
+                .map(|r| <[T; PARAM_COUNT]>::try_from(r).expect("9 outputs")),
         );
 
         // Ambient radiance from [features, normal, SH(view), Θ].
@@ -204,10 +251,10 @@ impl Pipeline {
         self.ambient_extra.clear();
         self.ambient_extra.reserve(n * ne);
         for ray in 0..rays.dirs.len() {
-            let sh: [f32; SH_DEG4_LEN] = sh_deg4(rays.dirs[ray]);
+            let sh: [T; SH_DEG4_LEN] = sh_deg4(rays.dirs[ray]);
             for k in offsets[ray] as usize..offsets[ray + 1] as usize {
                 let g = ctx.gradient[k];
-                let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt().max(1e-12);
+                let len = max(norm3(g), of(1e-12));
                 let nrm = [g[0] / len, g[1] / len, g[2] / len];
                 self.normals.push(nrm);
                 self.ambient_extra
@@ -232,7 +279,7 @@ impl Pipeline {
 
         // Flash term (SPEC §2).
         self.flash.clear();
-        self.flash.resize(n, [0.0; 3]);
+        self.flash.resize(n, [T::ZERO; 3]);
         flash_forward(
             &FlashInputs {
                 offsets,
@@ -257,7 +304,7 @@ impl Pipeline {
                 .map(|(a, f)| [a[0] + f[0], a[1] + f[1], a[2] + f[2]]),
         );
         self.colour.clear();
-        self.colour.resize(rays.dirs.len(), [0.0; 3]);
+        self.colour.resize(rays.dirs.len(), [T::ZERO; 3]);
         composite(
             offsets,
             &self.weights.weight,
@@ -268,8 +315,8 @@ impl Pipeline {
         // Eikonal residual over every point inside the ball (SPEC §4).
         let (mut sum, mut count) = (0.0f64, 0usize);
         for (p, g) in self.points.iter().zip(&ctx.gradient) {
-            if p[0] * p[0] + p[1] * p[1] + p[2] * p[2] <= EIKONAL_RADIUS * EIKONAL_RADIUS {
-                let len = ((g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) as f64).sqrt();
+            if in_eikonal_ball(p) {
+                let len = to_f64(norm3(*g));
                 sum += (len - 1.0) * (len - 1.0);
                 count += 1;
             }
@@ -279,22 +326,23 @@ impl Pipeline {
     }
 
     /// Σw of each ray of the last pass.
-    pub fn acc_weight(&self) -> &[f32] {
+    pub fn acc_weight(&self) -> &[T] {
         &self.weights.acc_weight
     }
 
     /// Backward pass of the last forward pass: `d_colour` = ∂L/∂C and
     /// `d_acc` = ∂L/∂(Σw) per ray; `eikonal_weight` scales the eikonal term
     /// (whose value is [`Pipeline::eikonal`]). ADDS into `grads`.
+    #[allow(clippy::too_many_arguments)]
     pub fn backward(
         &mut self,
-        model: &Model,
-        rays: &RayInputs<'_>,
-        d_colour: &[[f32; 3]],
-        d_acc: &[f32],
-        eikonal_weight: f32,
+        model: &Model<T>,
+        rays: &RayInputs<'_, T>,
+        d_colour: &[[T; 3]],
+        d_acc: &[T],
+        eikonal_weight: T,
         settings: &PassSettings,
-        grads: &mut ModelGrads,
+        grads: &mut ModelGrads<T>,
     ) {
         let n = self.n_samples;
         let n_points = self.points.len();
@@ -305,9 +353,9 @@ impl Pipeline {
 
         // C = Σ w_k c_k
         self.d_weight.clear();
-        self.d_weight.resize(n, 0.0);
+        self.d_weight.resize(n, T::ZERO);
         self.d_colour_sample.clear();
-        self.d_colour_sample.resize(n, [0.0; 3]);
+        self.d_colour_sample.resize(n, [T::ZERO; 3]);
         composite_backward(
             offsets,
             &self.weights.weight,
@@ -319,9 +367,9 @@ impl Pipeline {
 
         // Flash term → Θ, ∇φ, g.
         self.d_theta.clear();
-        self.d_theta.resize(n, [0.0; PARAM_COUNT]);
+        self.d_theta.resize(n, [T::ZERO; PARAM_COUNT]);
         self.d_grad.clear();
-        self.d_grad.resize(n_points, [0.0; 3]);
+        self.d_grad.resize(n_points, [T::ZERO; 3]);
         let d_log_gain = flash_backward(
             &FlashInputs {
                 offsets,
@@ -341,9 +389,9 @@ impl Pipeline {
         grads.log_gain += d_log_gain;
 
         // Ambient field → its parameters and its inputs.
-        let d_amb: &[f32] = self.d_colour_sample.as_flattened();
+        let d_amb: &[T] = self.d_colour_sample.as_flattened();
         self.d_ambient_extra.clear();
-        self.d_ambient_extra.resize(n * ne, 0.0);
+        self.d_ambient_extra.resize(n * ne, T::ZERO);
         model.ambient.backward(
             &mut self.ambient_ctx,
             d_amb,
@@ -352,15 +400,14 @@ impl Pipeline {
             None,
         );
         self.d_features.clear();
-        self.d_features.resize(n_points * nf, 0.0);
+        self.d_features.resize(n_points * nf, T::ZERO);
         for k in 0..n {
             let row = &self.d_ambient_extra[k * ne..(k + 1) * ne];
             self.d_features[k * nf..(k + 1) * nf].copy_from_slice(&row[..nf]);
             // n = ∇φ/|∇φ|: ∂L/∂∇φ = (∂L/∂n − n (n·∂L/∂n)) / |∇φ|
             let dn = [row[nf], row[nf + 1], row[nf + 2]];
             let nrm = self.normals[k];
-            let g = ctx.gradient[k];
-            let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt().max(1e-12);
+            let len = max(norm3(ctx.gradient[k]), of(1e-12));
             let proj = dn[0] * nrm[0] + dn[1] * nrm[1] + dn[2] * nrm[2];
             for a in 0..3 {
                 self.d_grad[k][a] += (dn[a] - nrm[a] * proj) / len;
@@ -382,7 +429,7 @@ impl Pipeline {
 
         // NeuS weights → φ, ∇φ, v.
         self.d_sdf.clear();
-        self.d_sdf.resize(n_points, 0.0);
+        self.d_sdf.resize(n_points, T::ZERO);
         let neus = NeusSettings {
             cos_anneal_ratio: settings.cos_anneal_ratio,
             ..NeusSettings::default()
@@ -405,12 +452,12 @@ impl Pipeline {
         grads.sharpness += d_v;
 
         // Eikonal: ∂/∂∇φ of w·mean((|∇φ| − 1)²) = w·2(|∇φ| − 1)·∇φ/|∇φ| / count.
-        if self.eikonal_count > 0 && eikonal_weight != 0.0 {
-            let scale = eikonal_weight * 2.0 / self.eikonal_count as f32;
+        if self.eikonal_count > 0 && eikonal_weight != T::ZERO {
+            let scale = eikonal_weight * of(2.0 / self.eikonal_count as f64);
             for ((p, g), dg) in self.points.iter().zip(&ctx.gradient).zip(&mut self.d_grad) {
-                if p[0] * p[0] + p[1] * p[1] + p[2] * p[2] <= EIKONAL_RADIUS * EIKONAL_RADIUS {
-                    let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt().max(1e-12);
-                    let f = scale * (len - 1.0) / len;
+                if in_eikonal_ball(p) {
+                    let len = max(norm3(*g), of(1e-12));
+                    let f = scale * (len - T::ONE) / len;
                     for a in 0..3 {
                         dg[a] += f * g[a];
                     }
@@ -427,4 +474,14 @@ impl Pipeline {
             &mut grads.sdf,
         );
     }
+}
+
+#[inline]
+fn in_eikonal_ball<T: Float>(p: &[T; 3]) -> bool {
+    to_f64(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) <= EIKONAL_RADIUS * EIKONAL_RADIUS
+}
+
+/// Whether every value of a slice of vectors is finite.
+pub fn all_finite<T: Float, const C: usize>(v: &[[T; C]]) -> bool {
+    v.iter().all(|x| x.iter().all(|c| finite(*c)))
 }

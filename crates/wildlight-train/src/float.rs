@@ -1,0 +1,43 @@
+//! The float type the model runs on: `f32` in training, `f64` in gradient
+//! checks. It must satisfy the field kernels' and the renderer's traits.
+
+/// A float usable by every kernel of the pipeline.
+pub trait Float: wildlight_fields::Real + wildlight_render::Scalar {}
+
+impl<T: wildlight_fields::Real + wildlight_render::Scalar> Float for T {}
+
+/// √x (the two kernel traits both define it; this picks one).
+#[inline(always)]
+pub fn sqrt<T: Float>(x: T) -> T {
+    wildlight_fields::Real::sqrt(x)
+}
+
+/// The larger of two values.
+#[inline(always)]
+pub fn max<T: Float>(a: T, b: T) -> T {
+    if a > b { a } else { b }
+}
+
+/// Converts from `f64`.
+#[inline(always)]
+pub fn of<T: Float>(v: f64) -> T {
+    wildlight_fields::Real::from_f64(v)
+}
+
+/// |v|.
+#[inline(always)]
+pub fn norm3<T: Float>(v: [T; 3]) -> T {
+    sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+}
+
+/// Whether `v` is neither infinite nor NaN.
+#[inline(always)]
+pub fn finite<T: Float>(v: T) -> bool {
+    wildlight_fields::Real::to_f64(v).is_finite()
+}
+
+/// Converts to `f64`.
+#[inline(always)]
+pub fn to_f64<T: Float>(v: T) -> f64 {
+    wildlight_fields::Real::to_f64(v)
+}

@@ -1,0 +1,220 @@
+//! Finite-difference check, in f64, of the whole differentiable chain:
+//! samples along rays → SDF field with finite-difference normals → NeuS
+//! weights → material and ambient fields, flash term → composited colour and
+//! Σw, plus the eikonal term → a loss. Every parameter group of a tiny model
+//! is probed.
+
+use wildlight_train::config::{FieldSize, ModelConfig};
+use wildlight_train::model::Model;
+use wildlight_train::pipeline::{PassSettings, Pipeline, RayInputs};
+
+fn tiny(levels: usize, log2: u32, hidden: usize) -> FieldSize {
+    FieldSize {
+        levels,
+        features_per_level: 2,
+        log2_table_size: log2,
+        base_resolution: 3,
+        finest_resolution: 9,
+        hidden: vec![hidden],
+    }
+}
+
+fn tiny_config() -> ModelConfig {
+    ModelConfig {
+        sdf: tiny(3, 7, 8),
+        geometry_features: 3,
+        init_radius: 0.5,
+        material: tiny(2, 6, 8),
+        ambient: tiny(2, 6, 8),
+        init_sharpness: 0.35,
+        init_log_gain: 0.2,
+        ..ModelConfig::default()
+    }
+}
+
+struct Setup {
+    origins: Vec<[f64; 3]>,
+    dirs: Vec<[f64; 3]>,
+    energy: Vec<[f64; 3]>,
+    eik: Vec<[f64; 3]>,
+    d_colour: Vec<[f64; 3]>,
+    d_acc: Vec<f64>,
+    settings: PassSettings,
+}
+
+const EIKONAL_WEIGHT: f64 = 0.3;
+
+fn normalize(v: [f64; 3]) -> [f64; 3] {
+    let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    v.map(|x| x / l)
+}
+
+fn setup() -> Setup {
+    let origins = vec![[0.1, 0.2, 2.5], [2.4, 0.3, 0.2], [-0.2, 2.3, 0.9]];
+    let dirs = vec![
+        normalize([-0.1, -0.25, -2.5]),
+        normalize([-2.4, -0.2, 0.1]),
+        normalize([0.3, -2.3, -0.85]),
+    ];
+    Setup {
+        origins,
+        dirs,
+        energy: vec![[3.0, 2.5, 2.0], [0.0; 3], [1.5, 1.5, 1.5]],
+        eik: vec![[0.3, -0.2, 0.1], [0.9, 0.5, -0.4], [-0.6, 0.1, 0.7]],
+        d_colour: vec![[0.7, -0.4, 0.2], [0.3, 0.5, -0.9], [-0.6, 0.8, 0.4]],
+        d_acc: vec![0.5, -0.3, 0.8],
+        settings: PassSettings {
+            fd_step: 0.02,
+            cos_anneal_ratio: 0.6,
+            jitter_seed: None,
+        },
+    }
+}
+
+/// Evaluates the loss L = Σ d_colour·C + Σ d_acc·Σw + w_e·eikonal and, with
+/// `grads`, its gradient.
+fn loss(
+    model: &Model<f64>,
+    s: &Setup,
+    grads: Option<&mut wildlight_train::model::ModelGrads<f64>>,
+) -> f64 {
+    let mut p: Pipeline<f64> = Pipeline::default();
+    // 24 uniform sections over [1.5, 3.5] on every ray: they cross the
+    // initial sphere of radius 0.5.
+    let n = 24;
+    p.samples.offsets = (0..=s.dirs.len() as u32).map(|r| r * n).collect();
+    for (o, d) in s.origins.iter().zip(&s.dirs) {
+        for k in 0..n {
+            let t = 1.5 + (k as f64 + 0.5) * 2.0 / n as f64;
+            p.samples.t.push(t);
+            p.samples.delta.push(2.0 / n as f64);
+            p.samples
+                .positions
+                .push([o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]]);
+        }
+    }
+    let rays = RayInputs {
+        origins: &s.origins,
+        dirs: &s.dirs,
+        energy: &s.energy,
+    };
+    p.forward_samples(model, &rays, &s.eik, &s.settings);
+    let mut l = EIKONAL_WEIGHT * p.eikonal;
+    for (c, d) in p.colour.iter().zip(&s.d_colour) {
+        l += c[0] * d[0] + c[1] * d[1] + c[2] * d[2];
+    }
+    for (a, d) in p.acc_weight().iter().zip(&s.d_acc) {
+        l += a * d;
+    }
+    if let Some(g) = grads {
+        p.backward(
+            model,
+            &rays,
+            &s.d_colour,
+            &s.d_acc,
+            EIKONAL_WEIGHT,
+            &s.settings,
+            g,
+        );
+    }
+    l
+}
+
+fn check(name: &str, analytic: f64, numeric: f64) {
+    let scale = analytic.abs().max(numeric.abs()).max(1e-6);
+    assert!(
+        (analytic - numeric).abs() / scale < 2e-4,
+        "{name}: analytic {analytic:e} vs finite difference {numeric:e}"
+    );
+}
+
+fn sdf_grid(m: &mut Model<f64>) -> &mut Vec<f64> {
+    &mut m.sdf.field.grid.params
+}
+fn sdf_mlp(m: &mut Model<f64>) -> &mut Vec<f64> {
+    &mut m.sdf.field.mlp.params
+}
+fn mat_grid(m: &mut Model<f64>) -> &mut Vec<f64> {
+    &mut m.material.grid.params
+}
+fn mat_mlp(m: &mut Model<f64>) -> &mut Vec<f64> {
+    &mut m.material.mlp.params
+}
+fn amb_grid(m: &mut Model<f64>) -> &mut Vec<f64> {
+    &mut m.ambient.grid.params
+}
+fn amb_mlp(m: &mut Model<f64>) -> &mut Vec<f64> {
+    &mut m.ambient.mlp.params
+}
+
+#[test]
+fn whole_pipeline_matches_finite_differences() {
+    let s = setup();
+    let mut model = Model::<f64>::new(&tiny_config(), 5).unwrap();
+    // Move the material and ambient hash tables away from their tiny
+    // initial values so that their gradients are not negligible.
+    for (i, v) in model.material.grid.params.iter_mut().enumerate() {
+        *v = 0.3 * ((i as f64 * 0.7).sin());
+    }
+    for (i, v) in model.ambient.grid.params.iter_mut().enumerate() {
+        *v = 0.3 * ((i as f64 * 1.3).cos());
+    }
+    for (i, v) in model.sdf.field.grid.params.iter_mut().enumerate() {
+        *v = 0.02 * ((i as f64 * 0.9).sin());
+    }
+    let mut grads = model.new_grads();
+    let base = loss(&model, &s, Some(&mut grads));
+    assert!(base.is_finite());
+
+    let h = 1e-6;
+    let mut probed = 0;
+    macro_rules! probe {
+        ($name:expr, $params:expr, $grad:expr) => {{
+            let len = $grad.len();
+            // the entries with the largest gradients, plus a spread of others
+            let mut idx: Vec<usize> = (0..len).collect();
+            idx.sort_by(|&a, &b| $grad[b].abs().partial_cmp(&$grad[a].abs()).unwrap());
+            let mut chosen: Vec<usize> = idx[..4.min(len)].to_vec();
+            chosen.extend((0..len).step_by((len / 5).max(1)).take(5));
+            for i in chosen {
+                let mut plus = model.clone();
+                $params(&mut plus)[i] += h;
+                let mut minus = model.clone();
+                $params(&mut minus)[i] -= h;
+                let fd = (loss(&plus, &s, None) - loss(&minus, &s, None)) / (2.0 * h);
+                check(&format!("{} [{}]", $name, i), $grad[i], fd);
+                probed += 1;
+            }
+        }};
+    }
+    probe!("sdf.grid", sdf_grid, grads.sdf.grid);
+    probe!("sdf.mlp", sdf_mlp, grads.sdf.mlp);
+    probe!("material.grid", mat_grid, grads.material.grid);
+    probe!("material.mlp", mat_mlp, grads.material.mlp);
+    probe!("ambient.grid", amb_grid, grads.ambient.grid);
+    probe!("ambient.mlp", amb_mlp, grads.ambient.mlp);
+    for (name, get) in [
+        (
+            "sharpness",
+            (|m: &mut Model<f64>| &mut m.sharpness) as fn(&mut Model<f64>) -> &mut f64,
+        ),
+        ("log_gain", |m: &mut Model<f64>| &mut m.log_gain),
+    ] {
+        let mut plus = model.clone();
+        *get(&mut plus) += h;
+        let mut minus = model.clone();
+        *get(&mut minus) -= h;
+        let fd = (loss(&plus, &s, None) - loss(&minus, &s, None)) / (2.0 * h);
+        let an = if name == "sharpness" {
+            grads.sharpness
+        } else {
+            grads.log_gain
+        };
+        check(name, an, fd);
+        probed += 1;
+    }
+    assert!(probed >= 40, "{probed} parameters probed");
+    // The gradients are not trivially zero.
+    assert!(grads.sharpness.abs() > 1e-6 && grads.log_gain.abs() > 1e-6);
+    assert!(grads.material.mlp.iter().any(|g| g.abs() > 1e-6));
+}
