@@ -157,14 +157,99 @@ fn clearcoat<T: Real>(gloss: T, c: T, fresnel: T) -> Partials<T> {
     }
 }
 
+/// Value of [`ggx_d`] alone, in the same operations (same rounding).
+#[inline(always)]
+fn ggx_d_value<T: Real>(k: T, c: T) -> T {
+    let one = T::of(1.0);
+    let den = (one - c) * (one + c) + k * c * c;
+    k / (T::of(core::f64::consts::PI) * den * den)
+}
+
+/// Value of [`smith_g`] alone, in the same operations (same rounding).
+#[inline(always)]
+fn smith_g_value<T: Real>(k: T, c: T) -> T {
+    let one = T::of(1.0);
+    let tan2 = (one - c) * (one + c) * (one / (c * c));
+    T::of(2.0) / ((one + k * tan2).sqrt() + one)
+}
+
+/// Value of [`clearcoat`] alone, in the same operations (same rounding).
+#[inline(always)]
+fn clearcoat_value<T: Real>(gloss: T, c: T, fresnel: T) -> T {
+    let one = T::of(1.0);
+    let two = T::of(2.0);
+    // eq. 15
+    let rc = T::of(0.1) - T::of(0.099) * gloss;
+    // eq. 12, denominator as in `clearcoat`
+    let e = rc * rc - one;
+    let den = (one - c) * (one + c) + rc * rc * c * c;
+    let d_c = e / (two * T::of(core::f64::consts::PI) * rc.ln() * den);
+    // eqs. 11, 13, 14
+    d_c * smith_g_value(T::of(0.0625), c) * fresnel / (T::of(4.0) * c * c)
+}
+
 /// Evaluates ρ(n, h; Θ) of SPEC §3 for c = n·h.
 ///
 /// `params` are the 9 material parameters in the order of
 /// [`crate::Material`]. c is clamped to [`MIN_COS`] and the GGX alpha to
 /// [`MIN_ALPHA`].
+///
+/// This is the value-only path: it computes no derivatives, in the same
+/// operations as [`eval_with_jacobian`], so the two values agree bit for bit.
 #[inline]
 pub fn eval<T: Real>(params: &[T; 9], cos: T, settings: &BrdfSettings) -> [T; 3] {
-    eval_with_jacobian(params, cos, settings).value
+    let one = T::of(1.0);
+    let two = T::of(2.0);
+    let inv_pi = T::of(core::f64::consts::FRAC_1_PI);
+    let c = if cos > T::of(MIN_COS) {
+        cos
+    } else {
+        T::of(MIN_COS)
+    };
+    let r = params[ROUGHNESS];
+    let ss = params[SUBSURFACE];
+    let m = params[METALLIC];
+    let sp = params[DIELECTRIC];
+    let cc = params[CLEARCOAT];
+
+    // (1 − c)^5 of eqs. 4 and 5.
+    let omc = one - c;
+    let omc2 = omc * omc;
+    let q = omc2 * omc2 * omc;
+    // eq. 4 without base_color/π: (1 + (2r − 0.5) q)²
+    let u = one + (two * r - T::of(0.5)) * q;
+    let f_base = u * u;
+    // eq. 5 without 1.25·base_color/(2π): (1 + (r − 1) q)² (1/c − 1) + 1
+    let v = one + (r - one) * q;
+    let f_sub = v * v * (one / c - one) + one;
+    // eq. 3 divided by base_color
+    let k_sub = T::of(1.25 / (2.0 * core::f64::consts::PI));
+    let diffuse = (one - ss) * f_base * inv_pi + ss * k_sub * f_sub;
+
+    // eqs. 6–8 with k = alpha² = r⁴, alpha clamped.
+    let alpha_raw = r * r;
+    let alpha = if alpha_raw > T::of(MIN_ALPHA) {
+        alpha_raw
+    } else {
+        T::of(MIN_ALPHA)
+    };
+    let k = alpha * alpha;
+    let spec = ggx_d_value(k, c) * smith_g_value(k, c) / (T::of(4.0) * c * c);
+
+    let cc_lobe = clearcoat_value(
+        params[CLEARCOAT_GLOSS],
+        c,
+        T::of(settings.clearcoat_fresnel),
+    );
+
+    // eq. 2 as ρ = base·a + b (eqs. 9, 10).
+    let a = (one - m) * diffuse + m * spec;
+    let b = T::of(0.08) * (one - m) * sp * spec + T::of(0.25) * cc * cc_lobe;
+    [
+        params[BASE_COLOR] * a + b,
+        params[BASE_COLOR + 1] * a + b,
+        params[BASE_COLOR + 2] * a + b,
+    ]
 }
 
 /// Evaluates ρ and its derivatives with respect to all 9 parameters and c.

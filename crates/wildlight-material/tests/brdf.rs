@@ -276,6 +276,70 @@ fn f32_matches_the_equations_to_1e_4() {
     );
 }
 
+/// Relative difference of two values (0 when both are 0).
+fn rel_diff(a: f64, b: f64) -> f64 {
+    if a == b {
+        0.0
+    } else {
+        (a - b).abs() / a.abs().max(b.abs())
+    }
+}
+
+#[test]
+fn value_path_equals_the_jacobian_value_in_f32_and_f64() {
+    // The value-only `eval` repeats the operations of `eval_with_jacobian`,
+    // so the values agree bit for bit (which is within the 1e-6 (f32) and
+    // 1e-14 (f64) relative tolerances asked of the fast path), over the
+    // whole parameter cube, both clamps and both Fresnel settings.
+    let mut rng = Lcg(23);
+    let mut nonzero = 0;
+    for n in 0..20_000 {
+        let settings = BrdfSettings {
+            clearcoat_fresnel: if n % 2 == 0 { 0.2 } else { 0.04 },
+        };
+        let mut p = [0.0f64; 9];
+        for v in &mut p {
+            *v = rng.next();
+        }
+        match n % 5 {
+            0 => p[3] = 0.005 * rng.next(), // below the alpha clamp
+            1 => p[3] = 0.02,
+            _ => {}
+        }
+        let c = match n % 7 {
+            0 => -0.5 * rng.next(),       // back-facing: clamped
+            1 => 1e-5 * rng.next(),       // below MIN_COS
+            2 => 1.0 - rng.next() * 1e-4, // near head-on
+            3 => 1.0,
+            _ => rng.next(),
+        };
+        let fast = brdf::eval(&p, c, &settings);
+        let full = brdf::eval_with_jacobian(&p, c, &settings).value;
+        let p32 = p.map(|v| v as f32);
+        let fast32 = brdf::eval(&p32, c as f32, &settings);
+        let full32 = brdf::eval_with_jacobian(&p32, c as f32, &settings).value;
+        for i in 0..3 {
+            assert!(fast[i].is_finite() && fast[i] >= 0.0);
+            assert!(
+                rel_diff(fast[i], full[i]) <= 1e-14,
+                "f64 p={p:?} c={c}: {} vs {}",
+                fast[i],
+                full[i]
+            );
+            assert!(
+                rel_diff(fast32[i] as f64, full32[i] as f64) <= 1e-6,
+                "f32 p={p32:?} c={c}: {} vs {}",
+                fast32[i],
+                full32[i]
+            );
+            assert_eq!(fast[i].to_bits(), full[i].to_bits(), "f64 bits");
+            assert_eq!(fast32[i].to_bits(), full32[i].to_bits(), "f32 bits");
+            nonzero += (fast[i] > 0.0) as usize;
+        }
+    }
+    assert!(nonzero > 50_000, "{nonzero}");
+}
+
 #[test]
 fn material_array_round_trip_and_range_check() {
     let m = Material {
