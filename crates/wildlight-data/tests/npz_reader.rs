@@ -103,6 +103,11 @@ fn float64_3x4_fortran_order() {
     check_file("cams_f64_3x4_fortran.npz", 1e-9, 1e-11, None);
 }
 
+#[test]
+fn float64_compressed_savez() {
+    check_file("cams_f64_4x4_compressed.npz", 1e-9, 1e-11, Some(4.5));
+}
+
 /// Asserts that `err` names `file` and contains every `needle`.
 fn assert_mentions(err: &str, file: &str, needles: &[&str]) {
     assert!(err.contains(file), "error does not name {file}: {err}");
