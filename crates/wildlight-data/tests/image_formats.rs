@@ -69,8 +69,17 @@ fn png_values_are_value_over_256_with_default_cap() {
         let expected: Vec<f32> = png_bytes(i).iter().map(|v| *v as f32 / 256.0).collect();
         assert_eq!(data.views[i].image.data, expected);
     }
-    // A value of 255 reaches the cap, 254 does not.
-    assert!(255.0 / 256.0 >= PNG_SATURATION && 254.0 / 256.0 < PNG_SATURATION);
+    // Exactly the values stored as 255 reach the cap.
+    let cap = data.saturation.unwrap();
+    let at_cap = data.views[0]
+        .image
+        .data
+        .iter()
+        .filter(|v| **v >= cap)
+        .count();
+    let raw_255 = png_bytes(0).iter().filter(|v| **v == 255).count();
+    assert!(raw_255 > 0);
+    assert_eq!(at_cap, raw_255);
 }
 
 #[test]
