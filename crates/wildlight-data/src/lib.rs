@@ -1,6 +1,22 @@
 //! Dataset IO for WildLight/NeuS captures (SPEC §5): `cameras_sphere.npz`,
 //! cameras and rays, images and masks, loading a dataset folder, writing
 //! one, and the summary behind `wildlight info`.
+//!
+//! Reading: [`Dataset::load`] (a folder, with its `val/` split) or
+//! [`Dataset::load_cameras`] (cameras only). Each [`View`] holds a
+//! [`Camera`] (intrinsics, pose and centre in the normalized frame,
+//! [`Camera::ray`] through any pixel, [`Camera::project`]), an
+//! [`RgbImage`] and an optional [`Mask`].
+//!
+//! Writing: [`DatasetWriter`] writes `cameras_sphere.npz`, `image/NNN.exr`,
+//! `mask/NNN.png` and ground-truth maps `gt/<kind>/NNN.exr`, every file
+//! atomically; cameras for it come from [`Camera::look_at`] or
+//! [`Camera::from_krt`] with [`camera::intrinsics_from_fov_x`].
+//!
+//! Every error is a [`DataError`] naming the file (and the npz key or the
+//! pixel) and the problem.
+
+#![warn(missing_docs)]
 
 pub mod atomic;
 pub mod camera;
