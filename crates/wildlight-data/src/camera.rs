@@ -22,7 +22,7 @@ pub struct Camera {
     pub width: u32,
     /// Image height in pixels.
     pub height: u32,
-    /// Intrinsics K, upper triangular with K[2][2] = 1 (rows: fx s cx / 0 fy cy / 0 0 1).
+    /// Intrinsics K, upper triangular with `K[2][2]` = 1 (rows: fx s cx / 0 fy cy / 0 0 1).
     pub k: DMat3,
     /// Camera-to-frame rotation: its columns are the camera x, y, z axes in the normalized frame.
     pub c2w: DMat3,
@@ -39,7 +39,7 @@ pub struct Camera {
 /// Intrinsics and pose recovered from a 3×4 projection matrix.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Decomposition {
-    /// Intrinsics with K[2][2] = 1 and positive focal lengths.
+    /// Intrinsics with `K[2][2]` = 1 and positive focal lengths.
     pub k: DMat3,
     /// Frame-to-camera rotation R (proper, det = +1).
     pub w2c: DMat3,
@@ -54,7 +54,7 @@ pub struct Decomposition {
 /// det(M) > 0 for the left 3×3 block M; then the RQ decomposition M = K R
 /// (Gram–Schmidt on the rows of M, bottom row first) gives an upper
 /// triangular K with positive diagonal and a proper rotation R. K is
-/// divided by K[2][2]. The centre solves M C = −p₄.
+/// divided by `K[2][2]`. The centre solves M C = −p₄.
 ///
 /// Fails with a description when M is singular or P is not finite.
 pub fn decompose_projection(p: &DMat4) -> Result<Decomposition, String> {
@@ -181,7 +181,7 @@ impl Camera {
     }
 
     /// Builds a camera from intrinsics `k` and the WORLD pose x_cam = R x_world + t
-    /// (what a writer knows), with world_mat = [[K,0],[0,1]] · [[R,t],[0,1]].
+    /// (what a writer knows), with `world_mat = [[K,0],[0,1]] · [[R,t],[0,1]]`.
     #[allow(clippy::too_many_arguments)]
     pub fn from_krt(
         index: usize,
@@ -263,7 +263,7 @@ impl Camera {
     pub fn fy(&self) -> f64 {
         self.k.y_axis.y
     }
-    /// Skew K[0][1] (0 for ordinary cameras).
+    /// Skew `K[0][1]` (0 for ordinary cameras).
     pub fn skew(&self) -> f64 {
         self.k.y_axis.x
     }
@@ -287,7 +287,7 @@ impl Camera {
     }
 
     /// Direction, in camera coordinates, of K⁻¹ (x, y, 1)ᵀ (not normalized).
-    /// K is upper triangular with K[2][2] = 1, so this is a back substitution.
+    /// K is upper triangular with `K[2][2]` = 1, so this is a back substitution.
     pub fn camera_direction(&self, x: f64, y: f64) -> DVec3 {
         let yc = (y - self.cy()) / self.fy();
         let xc = (x - self.cx() - self.skew() * yc) / self.fx();
