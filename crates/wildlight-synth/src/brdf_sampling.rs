@@ -7,7 +7,9 @@
 use std::f64::consts::PI;
 
 use glam::DVec3;
-use wildlight_material::{BASE_COLOR, BrdfSettings, CLEARCOAT, CLEARCOAT_GLOSS, DIELECTRIC, METALLIC, ROUGHNESS};
+use wildlight_material::{
+    BASE_COLOR, BrdfSettings, CLEARCOAT, CLEARCOAT_GLOSS, DIELECTRIC, METALLIC, ROUGHNESS,
+};
 
 use crate::general_brdf::{clearcoat_d, clearcoat_roughness, ggx_d, ggx_k};
 
@@ -42,7 +44,11 @@ impl LobeMixture {
     /// Lobe probabilities roughly proportional to each lobe's albedo, with
     /// a floor on the specular lobe (every surface has grazing Fresnel).
     pub fn new(params: &[f64; 9], settings: &BrdfSettings) -> LobeMixture {
-        let base = [params[BASE_COLOR], params[BASE_COLOR + 1], params[BASE_COLOR + 2]];
+        let base = [
+            params[BASE_COLOR],
+            params[BASE_COLOR + 1],
+            params[BASE_COLOR + 2],
+        ];
         let m = params[METALLIC];
         let lum = luminance(base).max(0.02);
         let diffuse = (1.0 - m) * lum;
@@ -115,7 +121,12 @@ mod tests {
 
     #[test]
     fn frame_is_orthonormal() {
-        for n in [DVec3::Z, -DVec3::Z, DVec3::new(0.3, -0.5, 0.2).normalize(), DVec3::new(0.0, 0.0, -0.9999).normalize()] {
+        for n in [
+            DVec3::Z,
+            -DVec3::Z,
+            DVec3::new(0.3, -0.5, 0.2).normalize(),
+            DVec3::new(0.0, 0.0, -0.9999).normalize(),
+        ] {
             let (t, b) = frame(n);
             assert!((t.length() - 1.0).abs() < 1e-12 && (b.length() - 1.0).abs() < 1e-12);
             assert!(t.dot(b).abs() < 1e-12 && t.dot(n).abs() < 1e-12 && b.dot(n).abs() < 1e-12);
@@ -132,7 +143,11 @@ mod tests {
         let n = DVec3::new(0.2, 0.1, 1.0).normalize();
         let v = DVec3::new(0.5, -0.2, 0.8).normalize();
         let mut rng = rand_pcg::Pcg64::seed_from_u64(5);
-        for p in [params(0.3, 1.0, 0.0), params(0.8, 0.0, 0.0), params(0.5, 0.0, 1.0)] {
+        for p in [
+            params(0.3, 1.0, 0.0),
+            params(0.8, 0.0, 0.0),
+            params(0.5, 0.0, 1.0),
+        ] {
             let mix = LobeMixture::new(&p, &settings);
             // quadrature in the frame of n over (cos θ², φ) — cos θ = sqrt(s)
             let (t, b) = frame(n);
@@ -156,11 +171,15 @@ mod tests {
             let mut est = 0.0;
             for _ in 0..m {
                 if let Some(l) = mix.sample(n, v, rng.random(), rng.random(), rng.random()) {
-                    est += general_brdf::eval(&p, n, l, v, &settings)[0] * n.dot(l) / mix.pdf(n, v, l);
+                    est +=
+                        general_brdf::eval(&p, n, l, v, &settings)[0] * n.dot(l) / mix.pdf(n, v, l);
                 }
             }
             est /= m as f64;
-            assert!((est - exact).abs() < 0.03 * exact, "{p:?}: {est} vs {exact}");
+            assert!(
+                (est - exact).abs() < 0.03 * exact,
+                "{p:?}: {est} vs {exact}"
+            );
         }
     }
 }

@@ -52,7 +52,10 @@ struct Bounds {
 }
 
 impl Bounds {
-    const EMPTY: Bounds = Bounds { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
+    const EMPTY: Bounds = Bounds {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
     fn grow(&mut self, p: Vec3) {
         self.min = self.min.min(p);
         self.max = self.max.max(p);
@@ -84,7 +87,14 @@ impl Bvh {
         let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
         let mut nodes = Vec::with_capacity(2 * triangles.len() / LEAF_SIZE + 1);
         if !triangles.is_empty() {
-            build(&mut nodes, &mut order, 0, triangles.len(), &boxes, &centroids);
+            build(
+                &mut nodes,
+                &mut order,
+                0,
+                triangles.len(),
+                &boxes,
+                &centroids,
+            );
         }
         let tris = order
             .iter()
@@ -93,24 +103,49 @@ impl Bvh {
                 [a, b - a, c - a]
             })
             .collect();
-        Bvh { nodes, order, tris, positions: positions.to_vec(), triangles: triangles.to_vec() }
+        Bvh {
+            nodes,
+            order,
+            tris,
+            positions: positions.to_vec(),
+            triangles: triangles.to_vec(),
+        }
     }
 
     /// The closest hit with t in (t_min, t_max).
     pub fn intersect(&self, origin: DVec3, dir: DVec3, t_min: f64, t_max: f64) -> Option<Hit> {
         let mut best: Option<(f32, usize, f32, f32)> = None;
         let mut t_best = t_max as f32;
-        self.traverse(origin, dir, t_min as f32, &mut t_best, false, &mut |slot, t, u, v| {
-            best = Some((t, slot, u, v));
-        });
-        best.map(|(t, slot, u, v)| Hit { t: t as f64, triangle: self.order[slot], u: u as f64, v: v as f64 })
+        self.traverse(
+            origin,
+            dir,
+            t_min as f32,
+            &mut t_best,
+            false,
+            &mut |slot, t, u, v| {
+                best = Some((t, slot, u, v));
+            },
+        );
+        best.map(|(t, slot, u, v)| Hit {
+            t: t as f64,
+            triangle: self.order[slot],
+            u: u as f64,
+            v: v as f64,
+        })
     }
 
     /// Whether anything is hit with t in (t_min, t_max).
     pub fn occluded(&self, origin: DVec3, dir: DVec3, t_min: f64, t_max: f64) -> bool {
         let mut hit = false;
         let mut t_best = t_max as f32;
-        self.traverse(origin, dir, t_min as f32, &mut t_best, true, &mut |_, _, _, _| hit = true);
+        self.traverse(
+            origin,
+            dir,
+            t_min as f32,
+            &mut t_best,
+            true,
+            &mut |_, _, _, _| hit = true,
+        );
         hit
     }
 
@@ -131,7 +166,12 @@ impl Bvh {
         let q = s.cross(e1);
         let v = dir.dot(q) * inv;
         let t = e2.dot(q) * inv;
-        Hit { t, triangle: hit.triangle, u, v }
+        Hit {
+            t,
+            triangle: hit.triangle,
+            u,
+            v,
+        }
     }
 
     fn traverse(
@@ -245,7 +285,12 @@ fn build(
         cb.grow(centroids[t as usize]);
     }
     let me = nodes.len();
-    nodes.push(Node { min: bounds.min, max: bounds.max, offset: first as u32, count: count as u32 });
+    nodes.push(Node {
+        min: bounds.min,
+        max: bounds.max,
+        offset: first as u32,
+        count: count as u32,
+    });
     if count <= LEAF_SIZE {
         return me;
     }
@@ -290,7 +335,8 @@ fn build(
         let slice = &mut order[first..first + count];
         let mut i = 0;
         for j in 0..slice.len() {
-            let b = (((centroids[slice[j] as usize][axis] - cb.min[axis]) * scale) as usize).min(BINS - 1);
+            let b = (((centroids[slice[j] as usize][axis] - cb.min[axis]) * scale) as usize)
+                .min(BINS - 1);
             if b < split {
                 slice.swap(i, j);
                 i += 1;
@@ -300,7 +346,11 @@ fn build(
     } else {
         count / 2
     };
-    let mid = if mid == 0 || mid == count { count / 2 } else { mid };
+    let mid = if mid == 0 || mid == count {
+        count / 2
+    } else {
+        mid
+    };
     nodes[me].count = 0;
     build(nodes, order, first, mid, boxes, centroids);
     let right = build(nodes, order, first + mid, count - mid, boxes, centroids);
@@ -334,12 +384,23 @@ mod tests {
             let mut brute = f64::INFINITY;
             for (ti, t) in bvh.triangles.iter().enumerate() {
                 let _ = t;
-                let h = bvh.refine(origin, dir, Hit { t: 0.0, triangle: ti as u32, u: 0.0, v: 0.0 });
+                let h = bvh.refine(
+                    origin,
+                    dir,
+                    Hit {
+                        t: 0.0,
+                        triangle: ti as u32,
+                        u: 0.0,
+                        v: 0.0,
+                    },
+                );
                 if h.u >= 0.0 && h.v >= 0.0 && h.u + h.v <= 1.0 && h.t > 0.0 {
                     brute = brute.min(h.t);
                 }
             }
-            let hit = bvh.intersect(origin, dir, 0.0, f64::INFINITY).expect("aimed at the sphere");
+            let hit = bvh
+                .intersect(origin, dir, 0.0, f64::INFINITY)
+                .expect("aimed at the sphere");
             hits += 1;
             assert!((hit.t - brute).abs() < 1e-5, "{} vs {brute}", hit.t);
             let p = origin + hit.t * dir;
@@ -348,6 +409,9 @@ mod tests {
             assert!(!bvh.occluded(origin, dir, 0.0, hit.t * 0.999));
         }
         assert_eq!(hits, 400);
-        assert!(bvh.intersect(DVec3::new(0.0, 2.0, 0.0), DVec3::Y, 0.0, 10.0).is_none());
+        assert!(
+            bvh.intersect(DVec3::new(0.0, 2.0, 0.0), DVec3::Y, 0.0, 10.0)
+                .is_none()
+        );
     }
 }

@@ -120,20 +120,35 @@ pub fn scene_mesh(
             }
             let s = *scene;
             let mesh = mesh_sdf(&|p| s.distance(p), 0.9, mesh_resolution);
-            Ok((mesh, s.name().to_string(), MaterialDefinition::Procedural { name: s.name().into() }))
+            Ok((
+                mesh,
+                s.name().to_string(),
+                MaterialDefinition::Procedural {
+                    name: s.name().into(),
+                },
+            ))
         }
         SceneSource::MeshFile(path) => {
             let mut mesh = TriMesh::read(path)?;
-            let bad = |problem: &str| SynthError::BadMesh { path: path.clone(), problem: problem.into() };
+            let bad = |problem: &str| SynthError::BadMesh {
+                path: path.clone(),
+                problem: problem.into(),
+            };
             if mesh.triangles.is_empty() {
                 return Err(bad("the mesh has no triangles"));
             }
             if mesh.positions.iter().any(|p| !p.is_finite()) {
                 return Err(bad("the mesh has NaN or infinite vertex coordinates"));
             }
-            let bb = mesh.bounding_box().ok_or_else(|| bad("the mesh has no vertices"))?;
+            let bb = mesh
+                .bounding_box()
+                .ok_or_else(|| bad("the mesh has no vertices"))?;
             let c = bb.center();
-            let radius = mesh.positions.iter().map(|p| (*p - c).length()).fold(0.0f32, f32::max);
+            let radius = mesh
+                .positions
+                .iter()
+                .map(|p| (*p - c).length())
+                .fold(0.0f32, f32::max);
             if !(radius > 0.0) {
                 return Err(bad("all vertices coincide"));
             }
@@ -143,8 +158,17 @@ pub fn scene_mesh(
             }
             mesh.colors = None;
             mesh.uvs = None;
-            let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-            Ok((mesh, name, MaterialDefinition::Procedural { name: "patches".into() }))
+            let name = path
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            Ok((
+                mesh,
+                name,
+                MaterialDefinition::Procedural {
+                    name: "patches".into(),
+                },
+            ))
         }
     }
 }
@@ -153,17 +177,29 @@ fn remove_previous(out: &Path) -> Result<(), SynthError> {
     for name in ["image", "mask", "gt", "val"] {
         let p = out.join(name);
         if p.is_dir() {
-            std::fs::remove_dir_all(&p).map_err(|e| SynthError::Io { path: p.clone(), action: "removing", source: e })?;
+            std::fs::remove_dir_all(&p).map_err(|e| SynthError::Io {
+                path: p.clone(),
+                action: "removing",
+                source: e,
+            })?;
         }
     }
     let p = out.join("cameras_sphere.npz");
     if p.exists() {
-        std::fs::remove_file(&p).map_err(|e| SynthError::Io { path: p.clone(), action: "removing", source: e })?;
+        std::fs::remove_file(&p).map_err(|e| SynthError::Io {
+            path: p.clone(),
+            action: "removing",
+            source: e,
+        })?;
     }
     Ok(())
 }
 
-fn write_view_maps(writer: &DatasetWriter, index: usize, maps: &ViewImages) -> Result<(), SynthError> {
+fn write_view_maps(
+    writer: &DatasetWriter,
+    index: usize,
+    maps: &ViewImages,
+) -> Result<(), SynthError> {
     writer.write_image(index, &maps.image)?;
     writer.write_mask(index, &maps.mask)?;
     for (kind, img) in [
@@ -177,21 +213,39 @@ fn write_view_maps(writer: &DatasetWriter, index: usize, maps: &ViewImages) -> R
     ] {
         writer.write_map(kind, index, img)?;
     }
-    let planes: Vec<Vec<f32>> = (0..PARAM_COUNT).map(|c| maps.params.iter().map(|p| p[c]).collect()).collect();
+    let planes: Vec<Vec<f32>> = (0..PARAM_COUNT)
+        .map(|c| maps.params.iter().map(|p| p[c]).collect())
+        .collect();
     let names: Vec<String> = (0..PARAM_COUNT).map(|c| format!("p{c}")).collect();
-    let channels: Vec<(&str, &[f32])> = names.iter().map(|n| n.as_str()).zip(planes.iter().map(|p| p.as_slice())).collect();
-    writer.write_map_channels("params", index, maps.image.width, maps.image.height, &channels)?;
+    let channels: Vec<(&str, &[f32])> = names
+        .iter()
+        .map(|n| n.as_str())
+        .zip(planes.iter().map(|p| p.as_slice()))
+        .collect();
+    writer.write_map_channels(
+        "params",
+        index,
+        maps.image.width,
+        maps.image.height,
+        &channels,
+    )?;
     Ok(())
 }
 
 /// Renders and writes a whole capture.
 pub fn synthesize(opts: &SynthOptions) -> Result<CaptureSummary, SynthError> {
-    let bad = |what: &str, problem: String| SynthError::InvalidOption { what: what.into(), problem };
+    let bad = |what: &str, problem: String| SynthError::InvalidOption {
+        what: what.into(),
+        problem,
+    };
     if opts.spp == 0 || opts.spp > 65536 {
         return Err(bad("--spp", format!("{} (must be in 1..=65536)", opts.spp)));
     }
     if !(opts.env_strength > 0.0 && opts.env_strength.is_finite()) {
-        return Err(bad("--env-strength", format!("{} (must be > 0)", opts.env_strength)));
+        return Err(bad(
+            "--env-strength",
+            format!("{} (must be > 0)", opts.env_strength),
+        ));
     }
     if !(opts.noise >= 0.0 && opts.noise.is_finite()) {
         return Err(bad("--noise", format!("{} (must be ≥ 0)", opts.noise)));
@@ -206,12 +260,17 @@ pub fn synthesize(opts: &SynthOptions) -> Result<CaptureSummary, SynthError> {
     }
     let views = opts.rig.build()?;
     if opts.out.exists() {
-        let non_empty = std::fs::read_dir(&opts.out).map(|mut d| d.next().is_some()).unwrap_or(true);
+        let non_empty = std::fs::read_dir(&opts.out)
+            .map(|mut d| d.next().is_some())
+            .unwrap_or(true);
         if non_empty {
             if !opts.overwrite {
                 return Err(bad(
                     "--out",
-                    format!("{} exists and is not empty (pass --overwrite to replace the capture)", opts.out.display()),
+                    format!(
+                        "{} exists and is not empty (pass --overwrite to replace the capture)",
+                        opts.out.display()
+                    ),
                 ));
             }
             remove_previous(&opts.out)?;
@@ -235,14 +294,20 @@ pub fn synthesize(opts: &SynthOptions) -> Result<CaptureSummary, SynthError> {
     };
 
     let train = DatasetWriter::create(&opts.out)?;
-    let val = if opts.rig.val_views > 0 { Some(train.val()?) } else { None };
+    let val = if opts.rig.val_views > 0 {
+        Some(train.val()?)
+    } else {
+        None
+    };
 
     let total_rows = views.len() as u64 * opts.rig.height as u64;
     let bar = if opts.progress {
         let bar = ProgressBar::with_draw_target(Some(total_rows), ProgressDrawTarget::stderr());
         bar.set_style(
-            ProgressStyle::with_template("{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} rows (eta {eta})")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            ProgressStyle::with_template(
+                "{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} rows (eta {eta})",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
         );
         bar
     } else {
@@ -254,11 +319,23 @@ pub fn synthesize(opts: &SynthOptions) -> Result<CaptureSummary, SynthError> {
         bar.set_message(format!(
             "{} {} {:03}",
             scene_name,
-            if view.split == Split::Train { "train" } else { "val" },
+            if view.split == Split::Train {
+                "train"
+            } else {
+                "val"
+            },
             view.camera.index
         ));
         let on_row = || bar.inc(1);
-        let maps = render_view(&scene, &env, &view.camera, view.global_index, &settings, opts.rig.world_scale, &on_row)?;
+        let maps = render_view(
+            &scene,
+            &env,
+            &view.camera,
+            view.global_index,
+            &settings,
+            opts.rig.world_scale,
+            &on_row,
+        )?;
         match view.split {
             Split::Train => {
                 write_view_maps(&train, view.camera.index, &maps)?;
@@ -280,14 +357,28 @@ pub fn synthesize(opts: &SynthOptions) -> Result<CaptureSummary, SynthError> {
 
     // Ground truth: meshes and material.
     let gt_dir = opts.out.join("gt");
-    std::fs::create_dir_all(&gt_dir).map_err(|e| SynthError::Io { path: gt_dir.clone(), action: "creating folder", source: e })?;
+    std::fs::create_dir_all(&gt_dir).map_err(|e| SynthError::Io {
+        path: gt_dir.clone(),
+        action: "creating folder",
+        source: e,
+    })?;
     mesh.write(gt_dir.join("mesh_normalized.ply"))?;
     let scale_mat: DMat4 = opts.rig.scale_mat();
     let mut world = mesh.clone();
-    world.positions = mesh.positions.iter().map(|p| scale_mat.transform_point3(p.as_dvec3()).as_vec3()).collect::<Vec<Vec3>>();
+    world.positions = mesh
+        .positions
+        .iter()
+        .map(|p| scale_mat.transform_point3(p.as_dvec3()).as_vec3())
+        .collect::<Vec<Vec3>>();
     world.write(gt_dir.join("mesh_world.ply"))?;
-    GroundTruthMaterial::new(&scene_name, material, opts.rig.world_scale, opts.rig.world_offset, opts.brdf)
-        .save(&gt_dir.join("material.json"))?;
+    GroundTruthMaterial::new(
+        &scene_name,
+        material,
+        opts.rig.world_scale,
+        opts.rig.world_offset,
+        opts.brdf,
+    )
+    .save(&gt_dir.join("material.json"))?;
 
     Ok(CaptureSummary {
         out: opts.out.clone(),

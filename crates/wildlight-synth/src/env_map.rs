@@ -40,12 +40,27 @@ const MIN_SIN: f64 = 1e-6;
 impl EnvMap {
     /// Wraps linear RGB texels (row-major, `width × height`), all finite
     /// and non-negative, and builds the sampling tables.
-    pub fn from_texels(width: usize, height: usize, texels: Vec<[f32; 3]>) -> Result<EnvMap, String> {
+    pub fn from_texels(
+        width: usize,
+        height: usize,
+        texels: Vec<[f32; 3]>,
+    ) -> Result<EnvMap, String> {
         if width < 2 || height < 2 || texels.len() != width * height {
-            return Err(format!("need at least 2x2 texels, got {width}x{height} with {} values", texels.len()));
+            return Err(format!(
+                "need at least 2x2 texels, got {width}x{height} with {} values",
+                texels.len()
+            ));
         }
-        if let Some(i) = texels.iter().position(|t| t.iter().any(|v| !v.is_finite() || *v < 0.0)) {
-            return Err(format!("texel ({}, {}) is negative or not finite: {:?}", i % width, i / width, texels[i]));
+        if let Some(i) = texels
+            .iter()
+            .position(|t| t.iter().any(|v| !v.is_finite() || *v < 0.0))
+        {
+            return Err(format!(
+                "texel ({}, {}) is negative or not finite: {:?}",
+                i % width,
+                i / width,
+                texels[i]
+            ));
         }
         let mut weights = vec![0.0f64; width * height];
         for r in 0..height {
@@ -66,31 +81,55 @@ impl EnvMap {
             row_cdf[r + 1] = row_cdf[r] + row_sum / total;
             let cdf = &mut col_cdf[r * (width + 1)..(r + 1) * (width + 1)];
             for c in 0..width {
-                cdf[c + 1] = cdf[c] + if row_sum > 0.0 { row[c] / row_sum } else { 1.0 / width as f64 };
+                cdf[c + 1] = cdf[c]
+                    + if row_sum > 0.0 {
+                        row[c] / row_sum
+                    } else {
+                        1.0 / width as f64
+                    };
             }
             cdf[width] = 1.0;
         }
         row_cdf[height] = 1.0;
         let pixel_pdf = weights.iter().map(|w| w / total).collect();
-        Ok(EnvMap { width, height, texels, row_cdf, col_cdf, pixel_pdf })
+        Ok(EnvMap {
+            width,
+            height,
+            texels,
+            row_cdf,
+            col_cdf,
+            pixel_pdf,
+        })
     }
 
     /// Reads an equirectangular `.exr` or `.hdr` file (by extension).
     pub fn load(path: &Path) -> Result<EnvMap, SynthError> {
-        let err = |problem: String| SynthError::EnvMap { path: path.to_path_buf(), problem };
-        let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
+        let err = |problem: String| SynthError::EnvMap {
+            path: path.to_path_buf(),
+            problem,
+        };
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase());
         let (w, h, texels) = match ext.as_deref() {
             Some("exr") => {
                 let img = exr::prelude::read_first_rgba_layer_from_file(
                     path,
                     |res, _| (res.width(), vec![[0.0f32; 3]; res.width() * res.height()]),
-                    |(w, px): &mut (usize, Vec<[f32; 3]>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                    |(w, px): &mut (usize, Vec<[f32; 3]>),
+                     pos,
+                     (r, g, b, _a): (f32, f32, f32, f32)| {
                         px[pos.y() * *w + pos.x()] = [r, g, b];
                     },
                 )
                 .map_err(|e| err(e.to_string()))?;
                 let size = img.layer_data.size;
-                (size.width(), size.height(), img.layer_data.channel_data.pixels.1)
+                (
+                    size.width(),
+                    size.height(),
+                    img.layer_data.channel_data.pixels.1,
+                )
             }
             Some("hdr") => {
                 let img = image::ImageReader::open(path)
@@ -104,7 +143,10 @@ impl EnvMap {
             }
             _ => return Err(err("unknown extension (expected .exr or .hdr)".into())),
         };
-        let texels = texels.into_iter().map(|t: [f32; 3]| t.map(|v| if v.is_finite() { v.max(0.0) } else { 0.0 })).collect();
+        let texels = texels
+            .into_iter()
+            .map(|t: [f32; 3]| t.map(|v| if v.is_finite() { v.max(0.0) } else { 0.0 }))
+            .collect();
         EnvMap::from_texels(w, h, texels).map_err(err)
     }
 
@@ -139,7 +181,8 @@ impl EnvMap {
                     let disk = if cos_sun >= sun_cos { sun } else { DVec3::ZERO };
                     acc += sky + glow * DVec3::new(1.0, 0.9, 0.7) + disk;
                 }
-                let a = acc / (SUB * SUB) as f64;
+                // overall level: a mid-grey diffuse surface facing up reads about 0.3
+                let a = 0.6 * acc / (SUB * SUB) as f64;
                 texels[r * w + c] = [a.x as f32, a.y as f32, a.z as f32];
             }
         }
@@ -177,7 +220,8 @@ impl EnvMap {
     /// Solid-angle density with which [`EnvMap::sample`] picks `d`.
     pub fn pdf(&self, d: DVec3) -> f64 {
         let sin = (1.0 - d.y * d.y).max(0.0).sqrt().max(MIN_SIN);
-        self.pixel_pdf[self.texel_index(d)] * (self.width * self.height) as f64 / (2.0 * PI * PI * sin)
+        self.pixel_pdf[self.texel_index(d)] * (self.width * self.height) as f64
+            / (2.0 * PI * PI * sin)
     }
 
     /// Draws a direction with density ∝ luminance (per solid angle) from
@@ -213,7 +257,11 @@ fn sample_cdf(cdf: &[f64], u: f64) -> (usize, f64) {
     let n = cdf.len() - 1;
     let i = cdf.partition_point(|&c| c <= u).clamp(1, n) - 1;
     let width = cdf[i + 1] - cdf[i];
-    let f = if width > 0.0 { ((u - cdf[i]) / width).clamp(0.0, 1.0 - 1e-12) } else { 0.5 };
+    let f = if width > 0.0 {
+        ((u - cdf[i]) / width).clamp(0.0, 1.0 - 1e-12)
+    } else {
+        0.5
+    };
     (i, f)
 }
 
@@ -221,7 +269,11 @@ fn sample_cdf(cdf: &[f64], u: f64) -> (usize, f64) {
 pub fn direction_from_uv(u: f64, v: f64) -> DVec3 {
     let phi = (u - 0.5) * 2.0 * PI;
     let theta = v * PI;
-    DVec3::new(theta.sin() * phi.sin(), theta.cos(), -theta.sin() * phi.cos())
+    DVec3::new(
+        theta.sin() * phi.sin(),
+        theta.cos(),
+        -theta.sin() * phi.cos(),
+    )
 }
 
 /// Map coordinates (u, v) ∈ [0, 1]² of a unit direction.
@@ -234,7 +286,11 @@ pub fn uv_from_direction(d: DVec3) -> (f64, f64) {
 /// Unit direction at `elevation` above the horizon and azimuth φ (as in the map).
 pub fn direction_from_angles(elevation: f64, azimuth: f64) -> DVec3 {
     let theta = 0.5 * PI - elevation;
-    DVec3::new(theta.sin() * azimuth.sin(), theta.cos(), -theta.sin() * azimuth.cos())
+    DVec3::new(
+        theta.sin() * azimuth.sin(),
+        theta.cos(),
+        -theta.sin() * azimuth.cos(),
+    )
 }
 
 #[cfg(test)]
@@ -284,7 +340,10 @@ mod tests {
             est += env.radiance(d) / pdf;
         }
         est /= m as f64;
-        assert!((est.x - integral.x).abs() < 0.01 * integral.x, "{est} vs {integral}");
+        assert!(
+            (est.x - integral.x).abs() < 0.01 * integral.x,
+            "{est} vs {integral}"
+        );
         assert!((est.y - integral.y).abs() < 0.01 * integral.y);
     }
 
@@ -294,13 +353,24 @@ mod tests {
         let up = sky.radiance(DVec3::Y);
         let down = sky.radiance(-DVec3::Y);
         assert!(up.z > up.x && up.z > down.z);
-        let sun = sky.radiance(direction_from_angles(45f64.to_radians(), 40f64.to_radians()));
-        assert!(sun.x > 100.0);
+        let sun = sky.radiance(direction_from_angles(
+            45f64.to_radians(),
+            40f64.to_radians(),
+        ));
+        assert!(sun.x > 100.0, "{sun}");
     }
 
     #[test]
     fn bad_texels_are_reported() {
-        assert!(EnvMap::from_texels(2, 2, vec![[0.0; 3]; 4]).unwrap_err().contains("black"));
-        assert!(EnvMap::from_texels(2, 2, vec![[f32::NAN, 0.0, 0.0]; 4]).unwrap_err().contains("(0, 0)"));
+        assert!(
+            EnvMap::from_texels(2, 2, vec![[0.0; 3]; 4])
+                .unwrap_err()
+                .contains("black")
+        );
+        assert!(
+            EnvMap::from_texels(2, 2, vec![[f32::NAN, 0.0, 0.0]; 4])
+                .unwrap_err()
+                .contains("(0, 0)")
+        );
     }
 }

@@ -194,7 +194,12 @@ mod tests {
                 let spec = wildlight_material::brdf::eval(&p, c, &settings);
                 for i in 0..3 {
                     let rel = (general[i] - spec[i]).abs() / spec[i].abs().max(1e-300);
-                    assert!(rel < 1e-12, "channel {i}: {} vs {} (c = {c}, p = {p:?})", general[i], spec[i]);
+                    assert!(
+                        rel < 1e-12,
+                        "channel {i}: {} vs {} (c = {c}, p = {p:?})",
+                        general[i],
+                        spec[i]
+                    );
                 }
             }
         }

@@ -43,7 +43,10 @@ impl MaterialDefinition {
     /// or a JSON object of `wildlight_material::Material` fields (missing
     /// fields take the defaults), e.g. `{"base_color":[0.8,0.1,0.1],"roughness":0.3}`.
     pub fn parse(text: &str) -> Result<MaterialDefinition, SynthError> {
-        let err = |problem: String| SynthError::Material { source_name: "--material".into(), problem };
+        let err = |problem: String| SynthError::Material {
+            source_name: "--material".into(),
+            problem,
+        };
         let t = text.trim();
         if t.starts_with('{') {
             let material: Material = serde_json::from_str(t).map_err(|e| err(e.to_string()))?;
@@ -51,7 +54,9 @@ impl MaterialDefinition {
             def.validate().map_err(err)?;
             Ok(def)
         } else if PROCEDURAL_MATERIALS.contains(&t) {
-            Ok(MaterialDefinition::Procedural { name: t.to_string() })
+            Ok(MaterialDefinition::Procedural {
+                name: t.to_string(),
+            })
         } else {
             Err(err(format!(
                 "'{t}' is neither a JSON object nor a procedural material ({})",
@@ -67,7 +72,10 @@ impl MaterialDefinition {
                 if PROCEDURAL_MATERIALS.contains(&name.as_str()) {
                     Ok(())
                 } else {
-                    Err(format!("unknown procedural material '{name}' (known: {})", PROCEDURAL_MATERIALS.join(", ")))
+                    Err(format!(
+                        "unknown procedural material '{name}' (known: {})",
+                        PROCEDURAL_MATERIALS.join(", ")
+                    ))
                 }
             }
             MaterialDefinition::Constant { material } => match material.out_of_range() {
@@ -80,7 +88,9 @@ impl MaterialDefinition {
     /// The material at `p` (normalized frame).
     pub fn eval(&self, p: DVec3) -> Material {
         match self {
-            MaterialDefinition::Procedural { name } => procedural_material(name, p).unwrap_or_default(),
+            MaterialDefinition::Procedural { name } => {
+                procedural_material(name, p).unwrap_or_default()
+            }
             MaterialDefinition::Constant { material } => *material,
         }
     }
@@ -128,18 +138,34 @@ impl GroundTruthMaterial {
 
     /// Reads and checks `gt/material.json`.
     pub fn load(path: &Path) -> Result<GroundTruthMaterial, SynthError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| SynthError::Io { path: path.to_path_buf(), action: "reading", source: e })?;
-        let err = |problem: String| SynthError::Material { source_name: path.display().to_string(), problem };
-        let gt: GroundTruthMaterial = serde_json::from_str(&text).map_err(|e| err(e.to_string()))?;
+        let text = std::fs::read_to_string(path).map_err(|e| SynthError::Io {
+            path: path.to_path_buf(),
+            action: "reading",
+            source: e,
+        })?;
+        let err = |problem: String| SynthError::Material {
+            source_name: path.display().to_string(),
+            problem,
+        };
+        let gt: GroundTruthMaterial =
+            serde_json::from_str(&text).map_err(|e| err(e.to_string()))?;
         if gt.format != MATERIAL_FORMAT {
-            return Err(err(format!("format is '{}', expected '{MATERIAL_FORMAT}'", gt.format)));
+            return Err(err(format!(
+                "format is '{}', expected '{MATERIAL_FORMAT}'",
+                gt.format
+            )));
         }
         if gt.version != 1 {
-            return Err(err(format!("version {} is not supported (expected 1)", gt.version)));
+            return Err(err(format!(
+                "version {} is not supported (expected 1)",
+                gt.version
+            )));
         }
         if !(gt.world_scale > 0.0 && gt.world_scale.is_finite()) {
-            return Err(err(format!("world_scale must be positive, found {}", gt.world_scale)));
+            return Err(err(format!(
+                "world_scale must be positive, found {}",
+                gt.world_scale
+            )));
         }
         gt.material.validate().map_err(err)?;
         Ok(gt)
@@ -179,14 +205,19 @@ mod tests {
     fn parses_names_and_json() {
         assert_eq!(
             MaterialDefinition::parse("kettle").unwrap(),
-            MaterialDefinition::Procedural { name: "kettle".into() }
+            MaterialDefinition::Procedural {
+                name: "kettle".into()
+            }
         );
-        let c = MaterialDefinition::parse(r#"{"base_color":[0.8,0.1,0.1],"roughness":0.3}"#).unwrap();
+        let c =
+            MaterialDefinition::parse(r#"{"base_color":[0.8,0.1,0.1],"roughness":0.3}"#).unwrap();
         let m = c.eval(DVec3::ZERO);
         assert_eq!(m.base_color, [0.8, 0.1, 0.1]);
         assert_eq!(m.roughness, 0.3);
         assert_eq!(m.metallic, Material::default().metallic);
-        let e = MaterialDefinition::parse(r#"{"roughness":1.5}"#).unwrap_err().to_string();
+        let e = MaterialDefinition::parse(r#"{"roughness":1.5}"#)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("roughness") && e.contains("--material"), "{e}");
         let e = MaterialDefinition::parse("velvet").unwrap_err().to_string();
         assert!(e.contains("velvet") && e.contains("patches"), "{e}");
@@ -199,7 +230,9 @@ mod tests {
         let path = dir.path().join("material.json");
         let gt = GroundTruthMaterial::new(
             "kettle",
-            MaterialDefinition::Procedural { name: "kettle".into() },
+            MaterialDefinition::Procedural {
+                name: "kettle".into(),
+            },
             2.0,
             [1.0, -1.0, 0.5],
             BrdfSettings::default(),

@@ -16,6 +16,9 @@
 //! println!("{} views written to {}", summary.train_views, summary.out.display());
 //! ```
 
+// `!(x > 0.0)` is used on purpose: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod brdf_sampling;
 pub mod bvh;
 pub mod capture;

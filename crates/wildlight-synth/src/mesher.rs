@@ -24,18 +24,22 @@ where
     let n = resolution.max(4);
     let h = 2.0 * half / (n - 1) as f64;
     let origin = DVec3::splat(-half);
-    let point = |i: usize, j: usize, k: usize| origin + DVec3::new(i as f64, j as f64, k as f64) * h;
+    let point =
+        |i: usize, j: usize, k: usize| origin + DVec3::new(i as f64, j as f64, k as f64) * h;
     let idx = |i: usize, j: usize, k: usize| i + n * (j + n * k);
 
     // Distance at every grid point, slab by slab in parallel.
     let mut values = vec![0.0f64; n * n * n];
-    values.par_chunks_mut(n * n).enumerate().for_each(|(k, slab)| {
-        for j in 0..n {
-            for i in 0..n {
-                slab[i + n * j] = f(point(i, j, k));
+    values
+        .par_chunks_mut(n * n)
+        .enumerate()
+        .for_each(|(k, slab)| {
+            for j in 0..n {
+                for i in 0..n {
+                    slab[i + n * j] = f(point(i, j, k));
+                }
             }
-        }
-    });
+        });
 
     // Active cells (corner signs differ).
     let m = n - 1;
@@ -206,7 +210,10 @@ mod tests {
         let mesh = mesh_sdf(&|p| sphere(p, r), 0.8, 48);
         let vol = signed_volume(&mesh);
         let exact = 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
-        assert!((vol - exact).abs() < 0.01 * exact, "volume {vol} vs {exact}");
+        assert!(
+            (vol - exact).abs() < 0.01 * exact,
+            "volume {vol} vs {exact}"
+        );
         for p in &mesh.positions {
             assert!((p.length() as f64 - r).abs() < 1e-5, "{p:?}");
         }

@@ -66,7 +66,10 @@ impl RenderScene {
             Some(n) if n.len() == positions.len() => n.clone(),
             _ => mesh.vertex_normals_from_faces(),
         };
-        let normals = normals.iter().map(|n| n.as_dvec3().try_normalize().unwrap_or(DVec3::Z)).collect();
+        let normals = normals
+            .iter()
+            .map(|n| n.as_dvec3().try_normalize().unwrap_or(DVec3::Z))
+            .collect();
         let face_normals = mesh
             .triangles
             .iter()
@@ -76,7 +79,14 @@ impl RenderScene {
             })
             .collect();
         let bvh = Bvh::new(&positions, &mesh.triangles);
-        RenderScene { bvh, positions, normals, triangles: mesh.triangles.clone(), face_normals, material }
+        RenderScene {
+            bvh,
+            positions,
+            normals,
+            triangles: mesh.triangles.clone(),
+            face_normals,
+            material,
+        }
     }
 
     /// The material definition.
@@ -93,14 +103,21 @@ impl RenderScene {
         let w0 = 1.0 - hit.u - hit.v;
         let position = a * w0 + b * hit.u + c * hit.v;
         let [na, nb, nc] = tri.map(|v| self.normals[v as usize]);
-        let mut normal = (na * w0 + nb * hit.u + nc * hit.v).try_normalize().unwrap_or(self.face_normals[hit.triangle as usize]);
+        let mut normal = (na * w0 + nb * hit.u + nc * hit.v)
+            .try_normalize()
+            .unwrap_or(self.face_normals[hit.triangle as usize]);
         let mut geometric_normal = self.face_normals[hit.triangle as usize];
         if geometric_normal.dot(dir) > 0.0 {
             // seen from behind (open or inconsistently oriented mesh)
             geometric_normal = -geometric_normal;
             normal = -normal;
         }
-        Some(SurfacePoint { t: hit.t, position, normal, geometric_normal })
+        Some(SurfacePoint {
+            t: hit.t,
+            position,
+            normal,
+            geometric_normal,
+        })
     }
 
     /// Whether the ray from `origin` along unit `dir` hits anything with
@@ -161,7 +178,7 @@ fn strata_columns(n: usize) -> usize {
     let mut best = 1;
     let mut d = 1;
     while d * d <= n {
-        if n % d == 0 {
+        if n.is_multiple_of(d) {
             best = d;
         }
         d += 1;
@@ -221,7 +238,14 @@ fn ambient(
 
 /// The flash term of SPEC §2 for a surface point seen by a camera at
 /// distance `t` along `dir`: E ⊙ ρ(n, h; Θ) max(0, n·h) / t², h = −dir.
-pub fn flash_term(energy: [f64; 3], params: &[f64; 9], normal: DVec3, dir: DVec3, t: f64, brdf: &BrdfSettings) -> DVec3 {
+pub fn flash_term(
+    energy: [f64; 3],
+    params: &[f64; 9],
+    normal: DVec3,
+    dir: DVec3,
+    t: f64,
+    brdf: &BrdfSettings,
+) -> DVec3 {
     let c = normal.dot(-dir);
     if c <= 0.0 {
         return DVec3::ZERO;
@@ -285,7 +309,8 @@ pub fn render_view(
                             let sx = x as f64 - 0.5 + ((s % 4) as f64 + 0.5) / 4.0;
                             let sy = y as f64 - 0.5 + ((s / 4) as f64 + 0.5) / 4.0;
                             let ray = camera.ray(sx, sy);
-                            covered += scene.bvh.occluded(ray.origin, ray.dir, 0.0, f64::INFINITY) as usize;
+                            covered += scene.bvh.occluded(ray.origin, ray.dir, 0.0, f64::INFINITY)
+                                as usize;
                         }
                         covered > 8
                     } else {
@@ -294,13 +319,26 @@ pub fn render_view(
                     let ray = camera.ray(x as f64, y as f64);
                     let mut rng = pixel_rng(settings.seed, view, i, 0);
                     let (ambient_l, flash_l, normal, depth, params) = match &hits[i] {
-                        None => (env.radiance(ray.dir), DVec3::ZERO, DVec3::ZERO, 0.0, [0.0; 9]),
+                        None => (
+                            env.radiance(ray.dir),
+                            DVec3::ZERO,
+                            DVec3::ZERO,
+                            0.0,
+                            [0.0; 9],
+                        ),
                         Some(sp) => {
                             let params = scene.material.eval(sp.position).to_array::<f64>();
                             let v = -ray.dir;
                             let a = ambient(scene, env, sp, v, &params, settings, &mut rng);
                             let f = if flash_on {
-                                flash_term(energy, &params, sp.normal, ray.dir, sp.t, &settings.brdf)
+                                flash_term(
+                                    energy,
+                                    &params,
+                                    sp.normal,
+                                    ray.dir,
+                                    sp.t,
+                                    &settings.brdf,
+                                )
                             } else {
                                 DVec3::ZERO
                             };
@@ -320,7 +358,15 @@ pub fn render_view(
                     } else if settings.noise > 0.0 {
                         image = image.max(DVec3::ZERO);
                     }
-                    Pixel { image, ambient: ambient_l, flash: flash_l, normal, depth, params, mask }
+                    Pixel {
+                        image,
+                        ambient: ambient_l,
+                        flash: flash_l,
+                        normal,
+                        depth,
+                        params,
+                        mask,
+                    }
                 })
                 .collect();
             on_row();
@@ -347,7 +393,11 @@ pub fn render_view(
             out.image.set(xu, yu, f3(p.image));
             out.ambient.set(xu, yu, f3(p.ambient));
             out.flash.set(xu, yu, f3(p.flash));
-            out.base_color.set(xu, yu, [p.params[0] as f32, p.params[1] as f32, p.params[2] as f32]);
+            out.base_color.set(
+                xu,
+                yu,
+                [p.params[0] as f32, p.params[1] as f32, p.params[2] as f32],
+            );
             out.roughness.set(xu, yu, [p.params[ROUGHNESS] as f32; 3]);
             out.metallic.set(xu, yu, [p.params[METALLIC] as f32; 3]);
             out.normal.set(xu, yu, f3(p.normal));
@@ -398,7 +448,13 @@ mod tests {
         let params = scene.material().eval(sp.position).to_array::<f64>();
         let mut values = Vec::new();
         for spp in [1, 2, 64] {
-            let settings = ShadingSettings { spp, brdf: BrdfSettings::default(), noise: 0.0, saturation: None, seed: 1 };
+            let settings = ShadingSettings {
+                spp,
+                brdf: BrdfSettings::default(),
+                noise: 0.0,
+                saturation: None,
+                seed: 1,
+            };
             let mut mean = 0.0;
             let trials = 4000 / spp;
             for k in 0..trials {
@@ -416,7 +472,9 @@ mod tests {
                 let phi = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / n as f64;
                 let st = (1.0 - ct * ct).sqrt();
                 let l = DVec3::new(st * phi.cos(), st * phi.sin(), ct);
-                albedo += general_brdf::eval(&params, DVec3::Z, l, DVec3::Z, &BrdfSettings::default())[0] * ct;
+                albedo +=
+                    general_brdf::eval(&params, DVec3::Z, l, DVec3::Z, &BrdfSettings::default())[0]
+                        * ct;
             }
         }
         albedo *= 2.0 * std::f64::consts::PI / (n * n) as f64;

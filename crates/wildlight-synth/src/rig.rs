@@ -65,7 +65,7 @@ impl Default for RigOptions {
             world_scale: 2.5,
             world_offset: [0.4, -0.3, 1.2],
             flash_fraction: 0.5,
-            flash_energy: [15.0, 15.0, 15.0],
+            flash_energy: [10.0, 10.0, 10.0],
             exposure: 1.0,
             seed: 0,
         }
@@ -96,34 +96,72 @@ pub struct RigView {
 impl RigOptions {
     /// Checks the options.
     pub fn validate(&self) -> Result<(), SynthError> {
-        let bad = |what: &str, problem: String| Err(SynthError::InvalidOption { what: what.into(), problem });
+        let bad = |what: &str, problem: String| {
+            Err(SynthError::InvalidOption {
+                what: what.into(),
+                problem,
+            })
+        };
         if self.views == 0 {
             return bad("--views", "at least one view is needed".into());
         }
         if self.width == 0 || self.height == 0 || self.width > 16384 || self.height > 16384 {
-            return bad("image size", format!("{}x{} (each side must be 1..=16384)", self.width, self.height));
+            return bad(
+                "image size",
+                format!(
+                    "{}x{} (each side must be 1..=16384)",
+                    self.width, self.height
+                ),
+            );
         }
         if !(self.fov_deg > 1.0 && self.fov_deg < 170.0) {
-            return bad("--fov", format!("{} degrees (must be in (1, 170))", self.fov_deg));
+            return bad(
+                "--fov",
+                format!("{} degrees (must be in (1, 170))", self.fov_deg),
+            );
         }
         if !(self.distance > 1.05) || !self.distance.is_finite() {
-            return bad("--distance", format!("{} (cameras must be outside the unit sphere: > 1.05)", self.distance));
+            return bad(
+                "--distance",
+                format!(
+                    "{} (cameras must be outside the unit sphere: > 1.05)",
+                    self.distance
+                ),
+            );
         }
         let (lo, hi) = (self.elevation_min_deg, self.elevation_max_deg);
         if !(lo >= -89.0 && hi <= 89.0 && lo <= hi) {
-            return bad("elevation range", format!("[{lo}, {hi}] (need −89 ≤ min ≤ max ≤ 89)"));
+            return bad(
+                "elevation range",
+                format!("[{lo}, {hi}] (need −89 ≤ min ≤ max ≤ 89)"),
+            );
         }
         if !(0.0..=1.0).contains(&self.jitter) {
             return bad("--jitter", format!("{} (must be in [0, 1])", self.jitter));
         }
-        if !(self.world_scale > 0.0 && self.world_scale.is_finite()) || self.world_offset.iter().any(|v| !v.is_finite()) {
-            return bad("world transform", format!("scale {} offset {:?}", self.world_scale, self.world_offset));
+        if !(self.world_scale > 0.0 && self.world_scale.is_finite())
+            || self.world_offset.iter().any(|v| !v.is_finite())
+        {
+            return bad(
+                "world transform",
+                format!("scale {} offset {:?}", self.world_scale, self.world_offset),
+            );
         }
         if !(0.0..=1.0).contains(&self.flash_fraction) {
-            return bad("--flash-fraction", format!("{} (must be in [0, 1])", self.flash_fraction));
+            return bad(
+                "--flash-fraction",
+                format!("{} (must be in [0, 1])", self.flash_fraction),
+            );
         }
-        if self.flash_energy.iter().any(|e| !(*e >= 0.0 && e.is_finite())) {
-            return bad("--flash-power", format!("{:?} (must be ≥ 0)", self.flash_energy));
+        if self
+            .flash_energy
+            .iter()
+            .any(|e| !(*e >= 0.0 && e.is_finite()))
+        {
+            return bad(
+                "--flash-power",
+                format!("{:?} (must be ≥ 0)", self.flash_energy),
+            );
         }
         if !(self.exposure > 0.0 && self.exposure.is_finite()) {
             return bad("--exposure", format!("{} (must be > 0)", self.exposure));
@@ -156,14 +194,19 @@ impl RigOptions {
         let k = intrinsics_from_fov_x(self.width, self.height, self.fov_deg);
         let scale_mat = self.scale_mat();
         let mut out = Vec::new();
-        for (split, count, phase) in [(Split::Train, self.views, 0.0), (Split::Val, self.val_views, 0.5)] {
+        for (split, count, phase) in [
+            (Split::Train, self.views, 0.0),
+            (Split::Val, self.val_views, 0.5),
+        ] {
             let flash_count = (self.flash_fraction * count as f64).round() as usize;
             let mut flash: Vec<bool> = (0..count).map(|i| i < flash_count).collect();
             flash.shuffle(&mut rng);
             let golden = 0.618_033_988_749_894_9;
-            for i in 0..count {
+            for (i, &flash_on) in flash.iter().enumerate() {
                 let jit = |rng: &mut Pcg64| self.jitter * (rng.random::<f64>() - 0.5);
-                let az = 2.0 * std::f64::consts::PI * ((i as f64 + phase + jit(&mut rng)) / count as f64);
+                let az = 2.0
+                    * std::f64::consts::PI
+                    * ((i as f64 + phase + jit(&mut rng)) / count as f64);
                 // elevations follow a low-discrepancy sequence over the range
                 let t = ((i as f64 + phase) * golden + 0.25 * phase).fract();
                 let span = self.elevation_max_deg - self.elevation_min_deg;
@@ -172,9 +215,19 @@ impl RigOptions {
                     .to_radians();
                 let dist = self.distance * (1.0 + 0.2 * jit(&mut rng)).max(1.05 / self.distance);
                 let eye = dist * DVec3::new(el.cos() * az.sin(), el.sin(), el.cos() * az.cos());
-                let target = 0.1 * self.jitter * DVec3::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5);
+                let target = 0.1
+                    * self.jitter
+                    * DVec3::new(
+                        rng.random::<f64>() - 0.5,
+                        rng.random::<f64>() - 0.5,
+                        rng.random::<f64>() - 0.5,
+                    );
                 let to_world = |p: DVec3| scale_mat.transform_point3(p);
-                let energy = if flash[i] { self.light_energy() } else { [0.0; 3] };
+                let energy = if flash_on {
+                    self.light_energy()
+                } else {
+                    [0.0; 3]
+                };
                 let camera = Camera::look_at(
                     i,
                     self.width,
@@ -186,7 +239,11 @@ impl RigOptions {
                     scale_mat,
                     energy,
                 )?;
-                out.push(RigView { camera, split, global_index: out.len() });
+                out.push(RigView {
+                    camera,
+                    split,
+                    global_index: out.len(),
+                });
             }
         }
         Ok(out)
@@ -199,7 +256,12 @@ mod tests {
 
     #[test]
     fn views_surround_the_object_and_flash_fraction_holds() {
-        let opts = RigOptions { views: 20, val_views: 4, flash_fraction: 0.3, ..RigOptions::default() };
+        let opts = RigOptions {
+            views: 20,
+            val_views: 4,
+            flash_fraction: 0.3,
+            ..RigOptions::default()
+        };
         let views = opts.build().unwrap();
         assert_eq!(views.len(), 24);
         let train: Vec<_> = views.iter().filter(|v| v.split == Split::Train).collect();
@@ -211,20 +273,36 @@ mod tests {
             assert!(c.length() > 1.05, "camera inside the unit sphere");
             // looks roughly at the centre: the origin projects near the image centre
             let uv = v.camera.project(DVec3::ZERO).unwrap();
-            assert!((uv.x - 127.5).abs() < 30.0 && (uv.y - 127.5).abs() < 30.0, "{uv:?}");
+            assert!(
+                (uv.x - 127.5).abs() < 30.0 && (uv.y - 127.5).abs() < 30.0,
+                "{uv:?}"
+            );
             assert!(v.camera.scale_mat != DMat4::IDENTITY);
         }
         // azimuths cover the circle: mean direction is near zero
-        let mean: DVec3 = train.iter().map(|v| DVec3::new(v.camera.center.x, 0.0, v.camera.center.z).normalize()).sum();
+        let mean: DVec3 = train
+            .iter()
+            .map(|v| DVec3::new(v.camera.center.x, 0.0, v.camera.center.z).normalize())
+            .sum();
         assert!(mean.length() / 20.0 < 0.2);
         assert!(opts.build().unwrap() == views, "deterministic");
     }
 
     #[test]
     fn bad_options_are_named() {
-        let e = RigOptions { flash_fraction: 1.5, ..RigOptions::default() }.build().unwrap_err();
+        let e = RigOptions {
+            flash_fraction: 1.5,
+            ..RigOptions::default()
+        }
+        .build()
+        .unwrap_err();
         assert!(e.to_string().contains("--flash-fraction"));
-        let e = RigOptions { distance: 0.5, ..RigOptions::default() }.build().unwrap_err();
+        let e = RigOptions {
+            distance: 0.5,
+            ..RigOptions::default()
+        }
+        .build()
+        .unwrap_err();
         assert!(e.to_string().contains("--distance"));
     }
 }

@@ -108,7 +108,12 @@ fn kettle_parts(p: DVec3) -> [f64; 5] {
     // Foot ring under the body.
     let foot = torus_y(p - DVec3::new(0.0, -0.36, 0.0), 0.26, 0.035);
     // Knob on a thin stem.
-    let stem = capsule(p, DVec3::new(0.0, 0.3, 0.0), DVec3::new(0.0, 0.42, 0.0), 0.025);
+    let stem = capsule(
+        p,
+        DVec3::new(0.0, 0.3, 0.0),
+        DVec3::new(0.0, 0.42, 0.0),
+        0.025,
+    );
     let knob = smooth_union(sphere(p - DVec3::new(0.0, 0.45, 0.0), 0.06), stem, 0.02);
     // Hollow spout.
     let a = DVec3::new(0.3, -0.08, 0.0);
@@ -131,7 +136,11 @@ fn kettle_distance(p: DVec3) -> f64 {
 }
 
 fn mix(a: [f64; 3], b: [f64; 3], t: f64) -> [f64; 3] {
-    [a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t, a[2] + (b[2] - a[2]) * t]
+    [
+        a[0] + (b[0] - a[0]) * t,
+        a[1] + (b[1] - a[1]) * t,
+        a[2] + (b[2] - a[2]) * t,
+    ]
 }
 
 fn smoothstep(e0: f64, e1: f64, x: f64) -> f64 {
@@ -222,7 +231,11 @@ const SAMPLER_RING: usize = 3;
 const SAMPLER_FIN: usize = 4;
 
 fn sampler_parts(p: DVec3) -> [f64; 5] {
-    let plinth = round_box(p - DVec3::new(0.0, -0.42, 0.0), DVec3::new(0.48, 0.08, 0.36), 0.012);
+    let plinth = round_box(
+        p - DVec3::new(0.0, -0.42, 0.0),
+        DVec3::new(0.48, 0.08, 0.36),
+        0.012,
+    );
     let ball = sphere(p - DVec3::new(-0.24, -0.1, -0.1), 0.25);
     let cube_centre = DVec3::new(0.24, -0.16, 0.02);
     let q = p - cube_centre;
@@ -230,12 +243,18 @@ fn sampler_parts(p: DVec3) -> [f64; 5] {
     let tunnels = cylinder_x(q, 0.075).min(cylinder_z(q, 0.075));
     let cube = cube.max(-tunnels);
     let ring = torus_z(p - DVec3::new(0.24, 0.24, 0.02), 0.2, 0.028);
-    let fin = round_box(p - DVec3::new(-0.2, -0.2, 0.26), DVec3::new(0.2, 0.14, 0.016), 0.004);
+    let fin = round_box(
+        p - DVec3::new(-0.2, -0.2, 0.26),
+        DVec3::new(0.2, 0.14, 0.016),
+        0.004,
+    );
     [plinth, ball, cube, ring, fin]
 }
 
 fn sampler_distance(p: DVec3) -> f64 {
-    sampler_parts(p).iter().fold(f64::INFINITY, |a, &b| a.min(b))
+    sampler_parts(p)
+        .iter()
+        .fold(f64::INFINITY, |a, &b| a.min(b))
 }
 
 /// A fully saturated hue in [0, 1) as linear RGB.
@@ -253,7 +272,11 @@ fn sampler_material(p: DVec3) -> Material {
         SAMPLER_PLINTH => {
             // checker of two dielectrics; roughness grows along x, specular along z
             let c = ((p.x / 0.12).floor() + (p.z / 0.12).floor()).rem_euclid(2.0);
-            let color = if c < 0.5 { [0.7, 0.7, 0.68] } else { [0.12, 0.3, 0.5] };
+            let color = if c < 0.5 {
+                [0.7, 0.7, 0.68]
+            } else {
+                [0.12, 0.3, 0.5]
+            };
             Material {
                 base_color: color,
                 roughness: (0.05 + 0.95 * (p.x + 0.48) / 0.96).clamp(0.0, 1.0),
@@ -294,14 +317,17 @@ fn sampler_material(p: DVec3) -> Material {
             dielectric: 0.5,
             ..Material::default()
         },
-        SAMPLER_FIN | _ => Material {
+        part => {
+            debug_assert_eq!(part, SAMPLER_FIN);
             // waxy subsurface
-            base_color: [0.85, 0.8, 0.7],
-            roughness: 0.7,
-            subsurface: 1.0,
-            dielectric: 0.4,
-            ..Material::default()
-        },
+            Material {
+                base_color: [0.85, 0.8, 0.7],
+                roughness: 0.7,
+                subsurface: 1.0,
+                dielectric: 0.4,
+                ..Material::default()
+            }
+        }
     }
 }
 

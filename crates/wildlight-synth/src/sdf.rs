@@ -81,7 +81,11 @@ pub fn gradient(f: &impl Fn(DVec3) -> f64, p: DVec3, eps: f64) -> DVec3 {
     let dx = DVec3::new(eps, 0.0, 0.0);
     let dy = DVec3::new(0.0, eps, 0.0);
     let dz = DVec3::new(0.0, 0.0, eps);
-    DVec3::new(f(p + dx) - f(p - dx), f(p + dy) - f(p - dy), f(p + dz) - f(p - dz)) / (2.0 * eps)
+    DVec3::new(
+        f(p + dx) - f(p - dx),
+        f(p + dy) - f(p - dy),
+        f(p + dz) - f(p - dz),
+    ) / (2.0 * eps)
 }
 
 #[cfg(test)]

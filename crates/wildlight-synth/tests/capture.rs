@@ -11,7 +11,8 @@ use wildlight_data::{Dataset, LoadOptions, RgbImage};
 use wildlight_mesh::TriMesh;
 use wildlight_synth::general_brdf;
 use wildlight_synth::{
-    BuiltinScene, GroundTruthMaterial, RenderScene, RigOptions, SceneSource, SynthOptions, synthesize,
+    BuiltinScene, GroundTruthMaterial, RenderScene, RigOptions, SceneSource, SynthOptions,
+    synthesize,
 };
 
 fn small_options(out: &Path, scene: BuiltinScene) -> SynthOptions {
@@ -49,7 +50,12 @@ fn ground_truth_mesh_projects_into_the_mask_and_covers_it() {
         synthesize(&small_options(&out, scene)).unwrap();
         let mesh = TriMesh::read(out.join("gt/mesh_normalized.ply")).unwrap();
         let world = TriMesh::read(out.join("gt/mesh_world.ply")).unwrap();
-        let rs = RenderScene::new(&mesh, wildlight_synth::MaterialDefinition::Procedural { name: "patches".into() });
+        let rs = RenderScene::new(
+            &mesh,
+            wildlight_synth::MaterialDefinition::Procedural {
+                name: "patches".into(),
+            },
+        );
         let data = load(&out);
         let mut views = data.views.clone();
         views.extend(data.val.as_ref().expect("val split").views.clone());
@@ -89,12 +95,30 @@ fn ground_truth_mesh_projects_into_the_mask_and_covers_it() {
                 inside += near as usize;
                 hit_pixels[(y * w + x) as usize] = true;
             }
-            assert!(visible > 100, "{}: only {visible} visible vertices", scene.name());
+            assert!(
+                visible > 100,
+                "{}: only {visible} visible vertices",
+                scene.name()
+            );
             let frac = inside as f64 / visible as f64;
             let strict = strictly_inside as f64 / visible as f64;
-            eprintln!("{} view {}: {strict:.4} of visible vertices in mask pixels, {frac:.4} within one pixel", scene.name(), cam.index);
-            assert!(frac >= 0.99, "{} view {}: {frac} of visible vertices touch the mask", scene.name(), cam.index);
-            assert!(strict >= 0.75, "{} view {}: {strict} of visible vertices in mask pixels", scene.name(), cam.index);
+            eprintln!(
+                "{} view {}: {strict:.4} of visible vertices in mask pixels, {frac:.4} within one pixel",
+                scene.name(),
+                cam.index
+            );
+            assert!(
+                frac >= 0.99,
+                "{} view {}: {frac} of visible vertices touch the mask",
+                scene.name(),
+                cam.index
+            );
+            assert!(
+                strict >= 0.75,
+                "{} view {}: {strict} of visible vertices in mask pixels",
+                scene.name(),
+                cam.index
+            );
             let (mut mask_px, mut covered) = (0usize, 0usize);
             for y in 0..h {
                 for x in 0..w {
@@ -116,7 +140,12 @@ fn ground_truth_mesh_projects_into_the_mask_and_covers_it() {
             }
             assert!(mask_px > 200, "mask too small: {mask_px}");
             let frac = covered as f64 / mask_px as f64;
-            assert!(frac >= 0.99, "{} view {}: {frac} of mask pixels covered", scene.name(), cam.index);
+            assert!(
+                frac >= 0.99,
+                "{} view {}: {frac} of mask pixels covered",
+                scene.name(),
+                cam.index
+            );
         }
     }
 }
@@ -140,14 +169,19 @@ fn flash_view_minus_ambient_is_the_flash_term_of_the_ground_truth() {
         let cam = &view.camera;
         assert!(cam.flash());
         for (e, want) in cam.light_energy.iter().zip(opts.rig.flash_energy) {
-            assert!((e - want * 0.7).abs() < 1e-12, "light_energy includes the exposure");
+            assert!(
+                (e - want * 0.7).abs() < 1e-12,
+                "light_energy includes the exposure"
+            );
         }
         let name = format!("{:03}.exr", cam.index);
         let ambient = read_exr_rgb(&out.join("gt/ambient").join(&name)).unwrap();
         let depth = read_exr_rgb(&out.join("gt/depth").join(&name)).unwrap();
         let normal = read_exr_rgb(&out.join("gt/normal").join(&name)).unwrap();
         let params = read_exr_channels(&out.join("gt/params").join(&name)).unwrap();
-        let p: Vec<&[f32]> = (0..9).map(|c| params.channel(&format!("p{c}")).unwrap()).collect();
+        let p: Vec<&[f32]> = (0..9)
+            .map(|c| params.channel(&format!("p{c}")).unwrap())
+            .collect();
         let mask = view.mask.as_ref().unwrap();
         for y in 0..cam.height {
             for x in 0..cam.width {
@@ -182,12 +216,19 @@ fn flash_view_minus_ambient_is_the_flash_term_of_the_ground_truth() {
                     let want = cam.light_energy[ch] * rho[ch] * c / dist2;
                     let got = img[ch] as f64 - amb[ch] as f64;
                     let tol = 2e-6 * (img[ch] as f64).abs() + 1e-4 * want + 1e-7;
-                    assert!((got - want).abs() <= tol, "view {} pixel ({x},{y}) ch {ch}: {got} vs {want}", cam.index);
+                    assert!(
+                        (got - want).abs() <= tol,
+                        "view {} pixel ({x},{y}) ch {ch}: {got} vs {want}",
+                        cam.index
+                    );
                 }
             }
         }
     }
-    assert!(checked > 500, "material at depth points matched only {checked} times");
+    assert!(
+        checked > 500,
+        "material at depth points matched only {checked} times"
+    );
 }
 
 /// Moving the camera twice as far along the same line quarters the flash
@@ -224,7 +265,11 @@ fn doubling_the_camera_distance_quarters_the_flash() {
     // the flash falls off with the squared distance
     let ratio = (d2 / d1).powi(2);
     for c in 0..3 {
-        assert!((f1[c] / f2[c] - ratio).abs() < 1e-4 * ratio, "{} vs {ratio}", f1[c] / f2[c]);
+        assert!(
+            (f1[c] / f2[c] - ratio).abs() < 1e-4 * ratio,
+            "{} vs {ratio}",
+            f1[c] / f2[c]
+        );
     }
 }
 
@@ -244,7 +289,12 @@ fn capture_reads_back_with_the_same_cameras() {
     assert_eq!(data.views.len(), 4);
     assert_eq!(val.views.len(), 2);
     assert_eq!(data.saturation, None);
-    let loaded: Vec<_> = data.views.iter().chain(&val.views).map(|v| &v.camera).collect();
+    let loaded: Vec<_> = data
+        .views
+        .iter()
+        .chain(&val.views)
+        .map(|v| &v.camera)
+        .collect();
     for (want, got) in rig.iter().map(|r| &r.camera).zip(loaded) {
         assert_eq!(want.index, got.index);
         assert_eq!(want.world_mat, got.world_mat);
@@ -277,7 +327,10 @@ fn noise_saturation_and_determinism() {
         opts.rig.val_views = 0;
         opts.noise = noise;
         opts.saturation = cap;
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| synthesize(&opts)).unwrap();
         load(&out)
     };
@@ -291,11 +344,16 @@ fn noise_saturation_and_determinism() {
     let mut differs = 0;
     for (va, vn) in a.views.iter().zip(&noisy.views) {
         assert!(vn.image.data.iter().all(|x| (0.0..=0.5).contains(x)));
-        differs += va.image.data.iter().zip(&vn.image.data).filter(|(x, y)| x != y).count();
+        differs += va
+            .image
+            .data
+            .iter()
+            .zip(&vn.image.data)
+            .filter(|(x, y)| x != y)
+            .count();
     }
     assert!(differs > 1000);
     let amb_a = read_exr_rgb(&dir.path().join("a/gt/ambient/000.exr")).unwrap();
     let amb_n = read_exr_rgb(&dir.path().join("n/gt/ambient/000.exr")).unwrap();
     assert_eq!(amb_a, amb_n, "ground truth is noise free");
 }
-

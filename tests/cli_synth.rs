@@ -1,0 +1,150 @@
+//! `wildlight synth` from the command line: `--list`, and for every
+//! built-in scene a tiny capture that `wildlight info` then reads.
+
+use std::process::Command;
+
+fn wildlight() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_wildlight"))
+}
+
+fn scene_names() -> Vec<String> {
+    let out = wildlight().args(["synth", "--list"]).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .filter_map(|l| l.split_whitespace().next().map(str::to_string))
+        .collect()
+}
+
+#[test]
+fn list_names_the_scenes_default_first() {
+    let names = scene_names();
+    assert_eq!(names.first().map(String::as_str), Some("kettle"));
+    assert!(names.iter().any(|n| n == "sampler"), "{names:?}");
+}
+
+#[test]
+fn every_scene_synthesizes_and_info_reads_it() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in scene_names() {
+        let out = dir.path().join(&name);
+        let status = wildlight()
+            .args(["synth", "--scene", &name, "--out"])
+            .arg(&out)
+            .args([
+                "--views",
+                "4",
+                "--val-views",
+                "1",
+                "--width",
+                "32",
+                "--height",
+                "32",
+            ])
+            .args(["--spp", "4", "--mesh-resolution", "48", "--quiet"])
+            .output()
+            .unwrap();
+        assert!(
+            status.status.success(),
+            "synth {name}: {}",
+            String::from_utf8_lossy(&status.stderr)
+        );
+        for file in [
+            "cameras_sphere.npz",
+            "image/003.exr",
+            "mask/003.png",
+            "val/image/000.exr",
+            "gt/mesh_world.ply",
+            "gt/mesh_normalized.ply",
+            "gt/material.json",
+            "gt/params/000.exr",
+            "val/gt/normal/000.exr",
+        ] {
+            assert!(out.join(file).is_file(), "{name}: {file} missing");
+        }
+        let info = wildlight()
+            .args(["info", "--data"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(
+            info.status.success(),
+            "info {name}: {}",
+            String::from_utf8_lossy(&info.stderr)
+        );
+        let text = String::from_utf8_lossy(&info.stdout);
+        assert!(text.contains('4'), "info output: {text}");
+    }
+}
+
+#[test]
+fn bad_input_is_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = wildlight()
+        .args(["synth", "--scene", "teapot", "--out"])
+        .arg(dir.path().join("x"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("kettle"));
+    let out = wildlight()
+        .args(["synth", "--mesh"])
+        .arg(dir.path().join("missing.ply"))
+        .arg("--out")
+        .arg(dir.path().join("y"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("missing.ply"));
+}
+
+#[test]
+fn mesh_file_with_constant_material() {
+    let dir = tempfile::tempdir().unwrap();
+    // a tetrahedron far from the origin and large: it must be rescaled into the unit sphere
+    let mesh = dir.path().join("tet.obj");
+    std::fs::write(
+        &mesh,
+        "v 10 10 10\nv 14 10 10\nv 10 14 10\nv 10 10 14\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
+    )
+    .unwrap();
+    let out = dir.path().join("cap");
+    let run = wildlight()
+        .args(["synth", "--mesh"])
+        .arg(&mesh)
+        .arg("--out")
+        .arg(&out)
+        .args([
+            "--views",
+            "2",
+            "--val-views",
+            "0",
+            "--width",
+            "24",
+            "--height",
+            "24",
+            "--spp",
+            "2",
+            "--quiet",
+        ])
+        .args([
+            "--material",
+            r#"{"base_color":[0.9,0.1,0.1],"roughness":0.4}"#,
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let json = std::fs::read_to_string(out.join("gt/material.json")).unwrap();
+    assert!(json.contains("constant") && json.contains("0.9"), "{json}");
+    let mesh = std::fs::read(out.join("gt/mesh_normalized.ply")).unwrap();
+    assert!(!mesh.is_empty());
+}
