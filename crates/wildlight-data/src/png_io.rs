@@ -26,7 +26,7 @@ pub enum PngDecoding {
 /// The saturation cap of PNG data read with value/256 (SPEC §5): 255/256 − 0.001.
 pub const PNG_SATURATION: f32 = 255.0 / 256.0 - 0.001;
 
-/// The sRGB electro-optical transfer function: encoded value in [0,1] to linear.
+/// The sRGB electro-optical transfer function: encoded value in [0, 1] to linear.
 pub fn srgb_to_linear(v: f32) -> f32 {
     if v <= 0.04045 {
         v / 12.92
@@ -35,7 +35,7 @@ pub fn srgb_to_linear(v: f32) -> f32 {
     }
 }
 
-/// Linear value in [0,1] to its sRGB encoding (inverse of [`srgb_to_linear`]).
+/// Linear value in [0, 1] to its sRGB encoding (inverse of [`srgb_to_linear`]).
 pub fn linear_to_srgb(v: f32) -> f32 {
     if v <= 0.0031308 {
         12.92 * v
@@ -148,7 +148,7 @@ pub fn write_mask_png(path: &Path, mask: &Mask) -> Result<(), DataError> {
 }
 
 /// Writes an 8-bit sRGB-encoded RGB PNG of a linear image (values clamped
-/// to [0,1]), atomically. For previews; datasets store linear EXR.
+/// to [0, 1]), atomically. For previews; datasets store linear EXR.
 pub fn write_png_srgb(path: &Path, image: &RgbImage) -> Result<(), DataError> {
     let pixels: Vec<u8> = image
         .data
