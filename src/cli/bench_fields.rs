@@ -27,7 +27,10 @@ pub struct Args {
 /// Runs the fields benchmark.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut cfg = BenchConfig::default();
-    anyhow::ensure!(args.batch > 0 && args.reps > 0, "--batch and --reps must be positive");
+    anyhow::ensure!(
+        args.batch > 0 && args.reps > 0,
+        "--batch and --reps must be positive"
+    );
     cfg.batch = args.batch;
     cfg.reps = args.reps;
     cfg.field.grid.log2_table_size = args.log2_table_size;
@@ -52,10 +55,22 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             cfg.field.activation,
             1 + cfg.field.n_features
         );
-        println!("batch {} points, {} threads, medians of {} runs", cfg.batch, r.threads, cfg.reps);
-        println!("forward:                      {:>12.0} points/s", r.fwd_points_per_s);
-        println!("forward + backward:           {:>12.0} points/s", r.fwd_bwd_points_per_s);
-        println!("forward + backward + normals: {:>12.0} points/s", r.fwd_bwd_normals_points_per_s);
+        println!(
+            "batch {} points, {} threads, medians of {} runs",
+            cfg.batch, r.threads, cfg.reps
+        );
+        println!(
+            "forward:                      {:>12.0} points/s",
+            r.fwd_points_per_s
+        );
+        println!(
+            "forward + backward:           {:>12.0} points/s",
+            r.fwd_bwd_points_per_s
+        );
+        println!(
+            "forward + backward + normals: {:>12.0} points/s",
+            r.fwd_bwd_normals_points_per_s
+        );
         println!(
             "time share: encoding {:.0}%, MLP {:.0}% (enc fwd {:.1} ms, bwd {:.1} ms; MLP fwd {:.1} ms, bwd {:.1} ms)",
             100.0 * r.encoding_share,
