@@ -97,7 +97,7 @@ pub enum DataError {
         problem: String,
     },
     /// The image files do not match the camera indices of the npz.
-    #[error("{folder}: image files do not match the cameras of {npz}: {problem}")]
+    #[error("{folder}: files do not match the cameras of {npz}: {problem}")]
     IndexMismatch {
         /// The image (or mask) folder.
         folder: PathBuf,

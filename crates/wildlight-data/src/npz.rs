@@ -218,13 +218,24 @@ pub fn read_cameras_npz(path: &Path) -> Result<CamerasNpz, DataError> {
         }
         let scale_mat = read_mat(&mut npz, path, &scale_key)?;
         let last = mat4_rows(&scale_mat)[3];
-        if last != [0.0, 0.0, 0.0, 1.0] {
+        let off = last
+            .iter()
+            .zip([0.0, 0.0, 0.0, 1.0])
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        if off > 1e-6 {
             return Err(DataError::BadValue {
                 path: path.to_path_buf(),
                 key: scale_key,
                 problem: format!("last row is {last:?}, expected [0, 0, 0, 1] (an affine map)"),
             });
         }
+        // Rounding noise in the last row (scale_mat computed by inversion) is dropped.
+        let mut scale_mat = scale_mat;
+        scale_mat.x_axis.w = 0.0;
+        scale_mat.y_axis.w = 0.0;
+        scale_mat.z_axis.w = 0.0;
+        scale_mat.w_axis.w = 1.0;
         let det = scale_mat.determinant();
         if det.abs() < 1e-300 || !det.is_finite() {
             return Err(DataError::BadValue {

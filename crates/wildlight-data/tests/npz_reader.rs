@@ -200,3 +200,26 @@ fn singular_projection() {
         &["camera 0", "singular projection", "rank < 3"],
     );
 }
+
+#[test]
+fn scale_mat_must_be_affine() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("cameras_sphere.npz");
+    let mut arrays = read_cameras_npz(&fixture("cams_f64_4x4.npz"))
+        .unwrap()
+        .cameras;
+    // Rounding noise in the last row is accepted (and dropped).
+    arrays[0].scale_mat.x_axis.w = 1e-12;
+    wildlight_data::npz::write_cameras_npz(&path, &arrays, None).unwrap();
+    let back = read_cameras_npz(&path).unwrap();
+    assert_eq!(back.cameras[0].scale_mat.x_axis.w, 0.0);
+    // A projective last row is not.
+    arrays[1].scale_mat.z_axis.w = 0.5;
+    wildlight_data::npz::write_cameras_npz(&path, &arrays, None).unwrap();
+    let err = read_cameras_npz(&path).unwrap_err().to_string();
+    assert_mentions(
+        &err,
+        "cameras_sphere.npz",
+        &["scale_mat_1", "last row", "affine"],
+    );
+}
