@@ -304,4 +304,47 @@ mod tests {
         assert!(err.contains("x.exr") && err.contains("expected 4"), "{err}");
         assert!(!path.exists());
     }
+
+    /// Writes one EXR layer with the given channels, bypassing our writer.
+    fn write_raw(path: &Path, w: usize, h: usize, list: Vec<AnyChannel<FlatSamples>>) {
+        let layer = Layer::new(
+            (w, h),
+            LayerAttributes::default(),
+            Encoding::UNCOMPRESSED,
+            AnyChannels::sort(list.into()),
+        );
+        Image::from_layer(layer).write().to_file(path).unwrap();
+    }
+
+    #[test]
+    fn half_float_and_alpha_are_read() {
+        use exr::prelude::f16;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("half.exr");
+        let plane = |v: f32| FlatSamples::F16(vec![f16::from_f32(v); 6]);
+        let list = vec![
+            AnyChannel::new("A", plane(1.0)),
+            AnyChannel::new("B", plane(0.25)),
+            AnyChannel::new("G", plane(0.5)),
+            AnyChannel::new("R", plane(2.0)),
+        ];
+        write_raw(&path, 3, 2, list);
+        let img = read_exr_rgb(&path).unwrap();
+        assert_eq!((img.width, img.height), (3, 2));
+        assert_eq!(img.get(2, 1), [2.0, 0.5, 0.25]);
+    }
+
+    #[test]
+    fn luminance_only_is_grey() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("y.exr");
+        write_raw(
+            &path,
+            2,
+            1,
+            vec![AnyChannel::new("Y", FlatSamples::F32(vec![0.5, 3.0]))],
+        );
+        let img = read_exr_rgb(&path).unwrap();
+        assert_eq!(img.data, vec![0.5, 0.5, 0.5, 3.0, 3.0, 3.0]);
+    }
 }
