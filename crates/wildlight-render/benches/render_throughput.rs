@@ -49,6 +49,36 @@ fn time<F: FnMut()>(reps: usize, mut f: F) -> f64 {
     )
 }
 
+/// CPU time consumed by the whole process (all threads), in seconds.
+fn process_cpu_time() -> f64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: clock_gettime writes into the valid timespec it is given.
+    if unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) } == 0 {
+        ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
+    } else {
+        f64::NAN
+    }
+}
+
+/// Median process CPU time (all threads) of `reps` runs after a warm-up:
+/// unlike wall time, it does not count time the process waited while
+/// preempted on a busy machine.
+fn cpu_time<F: FnMut()>(reps: usize, mut f: F) -> f64 {
+    f(); // warm-up
+    median(
+        (0..reps)
+            .map(|_| {
+                let c = process_cpu_time();
+                f();
+                process_cpu_time() - c
+            })
+            .collect(),
+    )
+}
+
 fn main() {
     let env = |k: &str, d: usize| {
         std::env::var(k)
@@ -252,6 +282,20 @@ fn main() {
         rate(t_comp),
         ms(t_back),
         rate(t_back)
+    );
+    let c_neus = cpu_time(reps, || w.forward(&ninp, v, &settings));
+    let c_flash_value = cpu_time(reps, || flash_forward(&finp, 0.0, &brdf, &mut flash, None));
+    let c_flash = cpu_time(reps, || {
+        flash_forward(&finp, 0.0, &brdf, &mut flash, Some(&mut cache))
+    });
+    println!(
+        "CPU time (all threads) per call: NeuS forward {:.2} ms, flash forward value-only {:.2} ms \
+         ({:.0} ns/sample), with Jacobian cache {:.2} ms ({:.0} ns/sample)",
+        ms(c_neus),
+        ms(c_flash_value),
+        c_flash_value / n as f64 * 1e9,
+        ms(c_flash),
+        c_flash / n as f64 * 1e9
     );
     let total = t_coarse + t_refine + t_neus + t_flash + t_comp + t_back;
     println!(
