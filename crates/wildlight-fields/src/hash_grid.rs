@@ -211,10 +211,12 @@ impl<T: Real> BlockCells<T> {
         }
     }
 
-    /// Prefetches the table entries of the first `n` points.
+    /// Prefetches the table entries of the first `n` points. Only the even
+    /// corners: the x-neighbour `(i+1) xor h` shares the cache line of `i xor h`
+    /// unless `i ≡ 7 (mod 8)`.
     #[inline(always)]
     fn prefetch<U>(&self, base: *const U, f: usize, n: usize) {
-        for c in 0..8 {
+        for c in (0..8).step_by(2) {
             for i in 0..n {
                 prefetch(base.wrapping_add(self.index[c][i] as usize * f));
             }
@@ -422,7 +424,11 @@ impl<T: Real> HashGrid<T> {
                     let mut acc = [T::ZERO; F];
                     for c in 0..8 {
                         let e = cur.index[c][i] as usize * F;
-                        let v: &[T; F] = table[e..e + F].try_into().expect("F values");
+                        debug_assert!(e + F <= table.len());
+                        // SAFETY: `locate` yields indices below the level's entry
+                        // count (dense: at most (r+1)³ − 1; hashed: masked by T − 1),
+                        // and `table` holds `entries · F` values.
+                        let v: &[T; F] = unsafe { &*(table.as_ptr().add(e) as *const [T; F]) };
                         let w = cur.weight[c][i];
                         for k in 0..F {
                             acc[k] += w * v[k];
@@ -565,7 +571,10 @@ impl<T: Real> HashGrid<T> {
                 for c in 0..8 {
                     let e = cur.index[c][i] as usize * F;
                     let w = cur.weight[c][i];
-                    let gv: &mut [T; F] = (&mut g[e..e + F]).try_into().expect("F values");
+                    debug_assert!(e + F <= g.len());
+                    // SAFETY: as in `encode_f_generic`, indices are below the
+                    // level's entry count and `g` holds `entries · F` values.
+                    let gv: &mut [T; F] = unsafe { &mut *(g.as_mut_ptr().add(e) as *mut [T; F]) };
                     for k in 0..F {
                         gv[k] += w * d[k];
                     }
