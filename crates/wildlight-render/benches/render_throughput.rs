@@ -288,14 +288,29 @@ fn main() {
     let c_flash = cpu_time(reps, || {
         flash_forward(&finp, 0.0, &brdf, &mut flash, Some(&mut cache))
     });
+    let c_flash_back = cpu_time(reps, || {
+        d_theta.fill([0.0; 9]);
+        d_grad.fill([0.0; 3]);
+        flash_backward(
+            &finp,
+            0.0,
+            &brdf,
+            Some(&cache),
+            &d_c,
+            &mut d_theta,
+            &mut d_grad,
+        );
+    });
     println!(
         "CPU time (all threads) per call: NeuS forward {:.2} ms, flash forward value-only {:.2} ms \
-         ({:.0} ns/sample), with Jacobian cache {:.2} ms ({:.0} ns/sample)",
+         ({:.0} ns/sample), with Jacobian cache {:.2} ms ({:.0} ns/sample), flash backward \
+         (cached) {:.2} ms",
         ms(c_neus),
         ms(c_flash_value),
         c_flash_value / n as f64 * 1e9,
         ms(c_flash),
-        c_flash / n as f64 * 1e9
+        c_flash / n as f64 * 1e9,
+        ms(c_flash_back)
     );
     let total = t_coarse + t_refine + t_neus + t_flash + t_comp + t_back;
     println!(

@@ -243,9 +243,14 @@ pub fn flash_backward<T: Scalar>(
                     if g.cos <= T::of(0.0) {
                         continue;
                     }
+                    // Borrowed from the cache (no 132-byte copy per sample).
+                    let computed;
                     let jac = match cache {
-                        Some(c) => c.jacobians[k],
-                        None => brdf::eval_with_jacobian(&inputs.params[k], g.cos, settings),
+                        Some(c) => &c.jacobians[k],
+                        None => {
+                            computed = brdf::eval_with_jacobian(&inputs.params[k], g.cos, settings);
+                            &computed
+                        }
                     };
                     let s = g.cos * g.falloff;
                     let df = d_out[k];
