@@ -1,10 +1,247 @@
-//! `wildlight eval`.
+//! `wildlight eval`: geometry (appendix eq. 16), image (PSNR/SSIM) and
+//! material accuracy. Each prints a short table, or one JSON object with
+//! `--json`. All the work happens in `wildlight-eval`.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use wildlight_data::Dataset;
+use wildlight_eval::cameras::{Frame, viewpoints};
+use wildlight_eval::{
+    ImageEvaluation, MaterialEvaluation, MeshEvaluation, Split, SurfaceDistanceOptions,
+    evaluate_images, evaluate_materials, evaluate_meshes,
+};
+use wildlight_mesh::TriMesh;
 
 /// Options of `wildlight eval`.
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+pub struct Args {
+    #[command(subcommand)]
+    which: Which,
+}
+
+#[derive(clap::Subcommand, Debug)]
+enum Which {
+    /// Surface-to-surface distance of two meshes (SPEC §7, appendix eq. 16).
+    Mesh(MeshArgs),
+    /// PSNR and SSIM of rendered views over the masks, by flash / no-flash / all.
+    Images(ImagesArgs),
+    /// Material-map errors against a synthetic capture's ground truth.
+    Materials(MaterialsArgs),
+}
+
+/// The frame of the meshes given to `eval mesh`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum FrameArg {
+    /// World units (x_world = scale_mat · x_normalized).
+    World,
+    /// The normalized frame (object inside the unit sphere).
+    Normalized,
+}
+
+/// Options of `wildlight eval mesh`.
+#[derive(clap::Args, Debug)]
+struct MeshArgs {
+    /// Predicted mesh (.ply or .obj).
+    #[arg(long, value_name = "FILE")]
+    pred: PathBuf,
+    /// Ground-truth mesh (.ply or .obj).
+    #[arg(long, value_name = "FILE")]
+    gt: PathBuf,
+    /// Restrict both meshes to the surface these cameras see: a dataset
+    /// folder or a cameras_sphere.npz file.
+    #[arg(long, value_name = "DATASET_DIR_OR_NPZ")]
+    cameras: Option<PathBuf>,
+    /// The frame both meshes are in; the camera centres are taken in it.
+    #[arg(long, value_enum, default_value = "world")]
+    frame: FrameArg,
+    /// Seed of the point sampler.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Options of `wildlight eval images`.
+#[derive(clap::Args, Debug)]
+struct ImagesArgs {
+    /// Folder written by `wildlight render` (image/NNN.exr and views.json).
+    #[arg(long, value_name = "DIR")]
+    pred: PathBuf,
+    /// The capture's dataset folder (photos, masks, val/).
+    #[arg(long, value_name = "DATASET_DIR")]
+    gt: PathBuf,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+/// The split of `eval materials`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum SplitArg {
+    /// The dataset folder's own (training) views.
+    Train,
+    /// The dataset's val/ views.
+    Val,
+}
+
+/// Options of `wildlight eval materials`.
+#[derive(clap::Args, Debug)]
+struct MaterialsArgs {
+    /// Folder of predicted maps (base_color/, roughness/, metallic/, normal/).
+    #[arg(long, value_name = "DIR")]
+    pred: PathBuf,
+    /// The synthetic dataset folder (ground truth in <split>/gt/<kind>/).
+    #[arg(long, value_name = "DATASET_DIR")]
+    gt: PathBuf,
+    /// Which views' ground truth to use (default: val when the dataset has
+    /// val/gt, otherwise train).
+    #[arg(long, value_enum)]
+    split: Option<SplitArg>,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    json: bool,
+}
 
 /// Runs `wildlight eval`.
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`wildlight eval` is not yet available in this version")
+pub fn run(args: Args) -> anyhow::Result<()> {
+    match args.which {
+        Which::Mesh(a) => run_mesh(a),
+        Which::Images(a) => run_images(a),
+        Which::Materials(a) => run_materials(a),
+    }
+}
+
+fn run_mesh(args: MeshArgs) -> anyhow::Result<()> {
+    let pred = TriMesh::read(&args.pred)?;
+    let gt = TriMesh::read(&args.gt)?;
+    let frame = match args.frame {
+        FrameArg::World => Frame::World,
+        FrameArg::Normalized => Frame::Normalized,
+    };
+    let views = match &args.cameras {
+        Some(path) => {
+            let cameras = Dataset::load_cameras(path)
+                .with_context(|| format!("cannot read the cameras of {}", path.display()))?;
+            Some(viewpoints(&cameras, frame))
+        }
+        None => None,
+    };
+    let options = SurfaceDistanceOptions {
+        seed: args.seed,
+        ..SurfaceDistanceOptions::default()
+    };
+    let result = evaluate_meshes(&pred, &gt, views.as_deref(), &options)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&result)?);
+    } else {
+        print!("{}", mesh_table(&result));
+    }
+    Ok(())
+}
+
+fn mesh_table(r: &MeshEvaluation) -> String {
+    let d = &r.distance;
+    let mut s = String::from("surface distance (eq. 16), mesh units\n");
+    s += &format!("  mean          {:.6e}\n", d.mean);
+    s += &format!("  median        {:.6e}\n", d.median);
+    s += &format!("  std of mean   {:.2e}\n", d.std_of_mean);
+    s += &format!("  pairs         {}\n", d.pairs);
+    s += &format!("  pred → gt     {:.6e}  (accuracy)\n", d.mean_pred_to_gt);
+    s += &format!(
+        "  gt → pred     {:.6e}  (completeness)\n",
+        d.mean_gt_to_pred
+    );
+    if r.cameras > 0 {
+        s += &format!(
+            "  visible       pred {}/{} triangles, gt {}/{} triangles, {} cameras\n",
+            r.triangles_pred_used, r.triangles_pred, r.triangles_gt_used, r.triangles_gt, r.cameras
+        );
+    }
+    s
+}
+
+fn run_images(args: ImagesArgs) -> anyhow::Result<()> {
+    let result = evaluate_images(&args.pred, &args.gt)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&result)?);
+    } else {
+        print!("{}", images_table(&result));
+    }
+    Ok(())
+}
+
+fn number(v: Option<f64>, digits: usize) -> String {
+    v.map_or("-".into(), |v| format!("{v:.digits$}"))
+}
+
+fn images_table(r: &ImageEvaluation) -> String {
+    let mut s = String::from("views      count   PSNR (dB)   SSIM\n");
+    for (name, count, psnr, ssim) in [
+        ("no-flash", r.views_noflash, r.psnr_noflash, r.ssim_noflash),
+        ("flash", r.views_flash, r.psnr_flash, r.ssim_flash),
+        (
+            "all",
+            r.views_noflash + r.views_flash,
+            r.psnr_all,
+            r.ssim_all,
+        ),
+    ] {
+        s += &format!(
+            "{name:<10} {count:>5}   {:>9}   {:>6}\n",
+            number(psnr, 2),
+            number(ssim, 4)
+        );
+    }
+    s
+}
+
+fn run_materials(args: MaterialsArgs) -> anyhow::Result<()> {
+    let split = match args.split {
+        Some(SplitArg::Train) => Split::Train,
+        Some(SplitArg::Val) => Split::Val,
+        None if args.gt.join("val").join("gt").is_dir() => Split::Val,
+        None => Split::Train,
+    };
+    let result = evaluate_materials(&args.pred, &args.gt, split)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&result)?);
+    } else {
+        print!("{}", materials_table(&result));
+    }
+    Ok(())
+}
+
+fn materials_table(r: &MaterialEvaluation) -> String {
+    let mut s = format!(
+        "materials ({:?} split, {} views, {} surface pixels)\n",
+        r.split, r.views, r.pixels
+    );
+    s += &format!(
+        "  base colour PSNR          {} dB\n",
+        number(r.base_color_psnr, 2)
+    );
+    s += &format!(
+        "  base colour PSNR aligned  {} dB  (scale {})\n",
+        number(r.base_color_psnr_aligned, 2),
+        r.base_color_scale.map_or("-".into(), |k| format!(
+            "{:.3} {:.3} {:.3}",
+            k[0], k[1], k[2]
+        ))
+    );
+    s += &format!(
+        "  roughness MAE             {}\n",
+        number(r.roughness_mae, 4)
+    );
+    s += &format!(
+        "  metallic MAE              {}\n",
+        number(r.metallic_mae, 4)
+    );
+    s += &format!(
+        "  normal error              {}°  (coverage {})\n",
+        number(r.normal_error_deg, 2),
+        number(r.normal_coverage, 3)
+    );
+    s
 }
