@@ -162,7 +162,6 @@ pub fn bake<S: FieldSource + ?Sized>(
     progress: &ProgressBar,
 ) -> (MaterialTextures, Vec<bool>) {
     let hits = rasterize(mesh, width, height);
-    let from_normalized = to_normalized.inverse();
     // Normals transform by the inverse transpose of the linear part.
     let normal_to_export = Mat3::from_mat4(*to_normalized).transpose();
     progress.set_length(hits.len() as u64);
@@ -204,11 +203,11 @@ pub fn bake<S: FieldSource + ?Sized>(
                     let mut n = Vec3::ZERO;
                     let mut t = Vec3::ZERO;
                     let mut w = 0.0;
-                    for k in 0..3 {
-                        let v = tri[k] as usize;
-                        n += mesh.normals[v] * h.bary[k];
-                        t += mesh.tangents[v].truncate() * h.bary[k];
-                        w += mesh.tangents[v].w * h.bary[k];
+                    for (&v, &weight) in tri.iter().zip(&h.bary) {
+                        let v = v as usize;
+                        n += mesh.normals[v] * weight;
+                        t += mesh.tangents[v].truncate() * weight;
+                        w += mesh.tangents[v].w * weight;
                     }
                     let fine = (normal_to_export * Vec3::from_array(*g)).normalize_or(n);
                     let local = to_tangent_space(fine, n, t, w);
@@ -224,7 +223,6 @@ pub fn bake<S: FieldSource + ?Sized>(
             out
         })
         .collect();
-    let _ = from_normalized;
     let mut textures = MaterialTextures {
         width,
         height,

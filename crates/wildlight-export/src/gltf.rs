@@ -46,7 +46,7 @@ struct BinBuilder {
 
 impl BinBuilder {
     fn push(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         let mut view = json!({
@@ -173,11 +173,11 @@ pub fn encode_glb(asset: &Asset) -> Result<Vec<u8>, ExportError> {
     let mut json_bytes = root
         .to_vec()
         .map_err(|e| ExportError::stage("glTF", e.to_string()))?;
-    while json_bytes.len() % 4 != 0 {
+    while !json_bytes.len().is_multiple_of(4) {
         json_bytes.push(b' ');
     }
     let mut bin = b.bin;
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let total = 12 + 8 + json_bytes.len() + 8 + bin.len();
@@ -317,7 +317,7 @@ pub fn parse_glb(bytes: &[u8], path: &Path) -> Result<Asset, ExportError> {
     if normals.len() != n || tangents.len() != n || uvs.len() != n {
         return Err(bad("vertex attributes have different counts"));
     }
-    if indices.iter().any(|&i| i as usize >= n) || indices.len() % 3 != 0 {
+    if indices.iter().any(|&i| i as usize >= n) || !indices.len().is_multiple_of(3) {
         return Err(bad("index out of range or not a triangle list"));
     }
     let mat = &doc["materials"][prim["material"].as_u64().unwrap_or(0) as usize];

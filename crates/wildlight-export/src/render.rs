@@ -70,7 +70,6 @@ pub fn flash_radiance(
 pub struct AssetTracer<'a> {
     asset: &'a Asset,
     shape: parry3d::shape::TriMesh,
-    to_normalized: Mat4,
     from_normalized: Mat4,
 }
 
@@ -89,7 +88,6 @@ impl<'a> AssetTracer<'a> {
         Ok(AssetTracer {
             asset,
             shape,
-            to_normalized: asset_to_normalized,
             from_normalized: asset_to_normalized.inverse(),
         })
     }
@@ -104,7 +102,7 @@ impl<'a> AssetTracer<'a> {
             .into_par_iter()
             .map(|i| {
                 let ray = camera.ray((i % w) as f64, (i / w) as f64);
-                let (near, far) = ray.near_far_unit_sphere()?;
+                let (_, far) = ray.near_far_unit_sphere()?;
                 let o = self.from_normalized.transform_point3(ray.origin.as_vec3());
                 let d = self.from_normalized.transform_vector3(ray.dir.as_vec3());
                 // With the direction mapped (not re-normalized), the hit
@@ -113,7 +111,6 @@ impl<'a> AssetTracer<'a> {
                     parry3d::math::Vector::new(o.x, o.y, o.z),
                     parry3d::math::Vector::new(d.x, d.y, d.z),
                 );
-                let _ = near;
                 let (tri, hit) = CompositeShapeRef(&self.shape).cast_local_ray_and_get_normal(
                     &pray,
                     (far * 1.5 + 1.0) as f32,
@@ -152,7 +149,6 @@ impl<'a> AssetTracer<'a> {
                 ))
             })
             .collect();
-        let _ = self.to_normalized;
         to_flash_image(camera, pixels)
     }
 }

@@ -22,8 +22,7 @@ use glam::Vec3;
 use image::ImageEncoder;
 use wildlight_data::png_io::{linear_to_srgb, srgb_to_linear};
 use wildlight_material::{
-    BASE_COLOR, CLEARCOAT, CLEARCOAT_GLOSS, DIELECTRIC, METALLIC, PARAM_COUNT, ROUGHNESS,
-    SUBSURFACE,
+    BASE_COLOR, CLEARCOAT, CLEARCOAT_GLOSS, DIELECTRIC, METALLIC, ROUGHNESS, SUBSURFACE,
 };
 
 use crate::ExportError;
@@ -199,7 +198,6 @@ pub(crate) fn texels_from_gltf_maps(
             t
         })
         .collect();
-    let _ = PARAM_COUNT;
     Ok(MaterialTextures {
         width: base.width,
         height: base.height,
@@ -210,6 +208,7 @@ pub(crate) fn texels_from_gltf_maps(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use wildlight_material::PARAM_COUNT;
 
     #[test]
     fn gltf_packs_round_trip_within_quantization() {

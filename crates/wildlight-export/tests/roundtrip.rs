@@ -101,10 +101,10 @@ fn texels_hold_the_material_at_their_surface_point() {
         let mut n = Vec3::ZERO;
         let mut t = Vec3::ZERO;
         let mut w = 0.0;
-        for k in 0..3 {
-            n += mesh.normals[tri[k] as usize] * h.bary[k];
-            t += mesh.tangents[tri[k] as usize].truncate() * h.bary[k];
-            w += mesh.tangents[tri[k] as usize].w * h.bary[k];
+        for (&v, &weight) in tri.iter().zip(&h.bary) {
+            n += mesh.normals[v as usize] * weight;
+            t += mesh.tangents[v as usize].truncate() * weight;
+            w += mesh.tangents[v as usize].w * weight;
         }
         let world_normal = (Mat3::from_mat4(to_normalized).transpose() * g).normalize();
         let local = to_tangent_space(world_normal, n, t, w);

@@ -4,7 +4,7 @@
 
 use std::sync::OnceLock;
 
-use glam::{DMat4, DVec3, Mat4, Vec2, Vec3};
+use glam::{DVec3, Mat4, Vec2, Vec3};
 use wildlight_data::Camera;
 use wildlight_data::camera::intrinsics_from_fov_x;
 use wildlight_export::{
@@ -94,5 +94,3 @@ pub fn cameras() -> Vec<Camera> {
         })
         .collect()
 }
-
-pub fn _unused(_: DMat4) {}
