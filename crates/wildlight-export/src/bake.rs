@@ -63,17 +63,25 @@ impl MaterialTextures {
 #[derive(Clone, Debug, PartialEq)]
 pub struct BakeOptions {
     /// Newton steps p ← p − φ(p) ∇φ / |∇φ|² that move a texel's point on
-    /// the simplified mesh onto the SDF's zero level set (default 2).
+    /// the simplified mesh onto the SDF's zero level set (default 1: the
+    /// point starts within the simplification error of the surface).
     pub projection_iterations: u32,
     /// Largest distance one step may move (normalized units, default 0.02).
     pub max_step: f32,
+    /// Take the fine normal from the gradient of the last projection step
+    /// (evaluated before that step, at most one step length away) instead
+    /// of evaluating the gradient again at the projected point (default
+    /// true: one gradient per texel fewer; the step is ~the simplification
+    /// error, far below what an 8-bit normal map resolves).
+    pub reuse_projection_gradient: bool,
 }
 
 impl Default for BakeOptions {
     fn default() -> Self {
         BakeOptions {
-            projection_iterations: 2,
+            projection_iterations: 1,
             max_step: 0.02,
+            reuse_projection_gradient: true,
         }
     }
 }
@@ -194,7 +202,9 @@ pub fn bake<S: FieldSource + ?Sized>(
             }
             let mut material = vec![[0.0f32; PARAM_COUNT]; points.len()];
             source.material(&points, &mut material);
-            source.gradient(&points, &mut grad);
+            if options.projection_iterations == 0 || !options.reuse_projection_gradient {
+                source.gradient(&points, &mut grad);
+            }
             let out: Vec<(u32, [f32; TEXEL_CHANNELS])> = chunk
                 .iter()
                 .zip(material.iter().zip(&grad))

@@ -30,7 +30,7 @@ use crate::source::{FieldSource, bounded_sdf, par_eval};
 pub struct MarchingOptions {
     /// Cells per axis of the grid over [−1, 1]³ (default 512).
     pub resolution: u32,
-    /// Cells per axis of a narrow-band block (default 8).
+    /// Cells per axis of a narrow-band block (default 4).
     pub block: u32,
     /// A block is skipped when its 8 corners share one sign and all have
     /// |φ| > `band_margin` × the block diagonal (an SDF with |∇φ| ≤
@@ -43,7 +43,7 @@ impl Default for MarchingOptions {
     fn default() -> Self {
         MarchingOptions {
             resolution: 512,
-            block: 8,
+            block: 4,
             band_margin: 1.5,
         }
     }

@@ -87,7 +87,7 @@ fn texels_hold_the_material_at_their_surface_point() {
         let got = asset.textures.texels[h.texel as usize];
         for k in 0..9 {
             // 8-bit quantization (sRGB for the base colour) plus the baker's
-            // two Newton steps.
+            // Newton step.
             let tol = if k < 3 { 0.012 } else { 0.6 / 255.0 + 2e-3 };
             assert!(
                 (got[k] - want[k]).abs() <= tol,
