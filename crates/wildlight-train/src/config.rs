@@ -100,7 +100,7 @@ impl Default for OptimConfig {
         Self {
             lr_grid: 1e-2,
             lr_mlp: 1e-3,
-            lr_sharpness: 1e-3,
+            lr_sharpness: 1e-2,
             lr_gain: 1e-2,
             warmup_steps: 100,
             final_lr_factor: 0.05,
@@ -330,10 +330,11 @@ impl TrainConfig {
 /// Parses a duration such as `90s`, `30m`, `1h`, `1h30m` or a plain number of seconds.
 pub fn parse_duration(text: &str) -> Result<std::time::Duration, String> {
     let t = text.trim();
-    if let Ok(secs) = t.parse::<f64>() {
-        if secs.is_finite() && secs >= 0.0 {
-            return Ok(std::time::Duration::from_secs_f64(secs));
-        }
+    if let Ok(secs) = t.parse::<f64>()
+        && secs.is_finite()
+        && secs >= 0.0
+    {
+        return Ok(std::time::Duration::from_secs_f64(secs));
     }
     let mut total = 0.0;
     let mut number = String::new();

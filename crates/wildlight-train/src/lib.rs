@@ -14,6 +14,7 @@
 
 pub mod config;
 pub mod float;
+pub mod inference;
 pub mod loss;
 pub mod model;
 pub mod pipeline;

@@ -83,6 +83,8 @@ pub struct PassSettings {
     pub cos_anneal_ratio: f64,
     /// Seed of the sampler's stratified jitter (`None`: strata centres).
     pub jitter_seed: Option<u64>,
+    /// Whether a backward pass follows (keeps the BRDF Jacobians).
+    pub for_backward: bool,
 }
 
 /// Buffers and results of a pass.
@@ -292,7 +294,11 @@ impl<T: Float + Default> Pipeline<T> {
             model.log_gain,
             &model.config.brdf,
             &mut self.flash,
-            Some(&mut self.flash_cache),
+            if settings.for_backward {
+                Some(&mut self.flash_cache)
+            } else {
+                None
+            },
         );
 
         // C = Σ w_k (a_k + f_k).
@@ -370,6 +376,10 @@ impl<T: Float + Default> Pipeline<T> {
         self.d_theta.resize(n, [T::ZERO; PARAM_COUNT]);
         self.d_grad.clear();
         self.d_grad.resize(n_points, [T::ZERO; 3]);
+        assert!(
+            settings.for_backward,
+            "Pipeline::backward after a forward pass without `for_backward`"
+        );
         let d_log_gain = flash_backward(
             &FlashInputs {
                 offsets,

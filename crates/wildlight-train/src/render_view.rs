@@ -67,6 +67,7 @@ pub fn render_view(
         fd_step,
         cos_anneal_ratio: 1.0,
         jitter_seed: None,
+        for_backward: false,
     };
     let (mut origins, mut dirs) = (Vec::new(), Vec::new());
     for start in (0..n).step_by(RENDER_CHUNK) {

@@ -206,7 +206,7 @@ pub fn train(opts: &RunOptions) -> anyhow::Result<RunSummary> {
         }
         let stats = trainer.step();
         let done = trainer.step;
-        if done % config.output.log_every == 0 || done == config.iters {
+        if done.is_multiple_of(config.output.log_every) || done == config.iters {
             let elapsed = start.elapsed().as_secs_f64();
             let rays_per_s = (done - first_step) as f64 * config.batch_rays as f64 / elapsed;
             let mut line = serde_json::to_value(&stats)?;
@@ -219,10 +219,10 @@ pub fn train(opts: &RunOptions) -> anyhow::Result<RunSummary> {
             ));
         }
         bar.set_position(done);
-        if config.output.preview_every > 0 && done % config.output.preview_every == 0 {
+        if config.output.preview_every > 0 && done.is_multiple_of(config.output.preview_every) {
             write_step_preview(&mut trainer, &preview_view, &opts.out, done)?;
         }
-        if done % config.output.checkpoint_every == 0 {
+        if done.is_multiple_of(config.output.checkpoint_every) {
             trainer.save_checkpoint(&ckpt)?;
         }
         last = Some(stats);

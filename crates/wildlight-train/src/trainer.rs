@@ -17,7 +17,8 @@ use wildlight_fields::{
     Adam, AdamConfig, Checkpoint, CheckpointWriter, Checkpointable, Decay, FieldContext, LrSchedule,
 };
 use wildlight_render::{
-    OccupancyGrid, OccupancySettings, RefreshMode, Sampler, SamplerSettings, cos_anneal_ratio,
+    OccupancyGrid, OccupancySettings, OccupancySnapshot, RefreshMode, Sampler, SamplerSettings,
+    cos_anneal_ratio,
 };
 
 /// What one step measured.
@@ -219,7 +220,7 @@ impl Trainer {
     pub fn step(&mut self) -> StepStats {
         let step = self.step;
         self.apply_step_schedule();
-        if step % self.config.sampling.grid_refresh_every == 0 {
+        if step.is_multiple_of(self.config.sampling.grid_refresh_every) {
             self.refresh_grid();
         } else {
             self.grid.reclassify(self.model.s());
@@ -250,6 +251,7 @@ impl Trainer {
             fd_step: self.fd_step(),
             cos_anneal_ratio: cos_anneal_ratio(step, self.config.optim.cos_anneal_steps),
             jitter_seed: Some(mix(self.config.seed, step, 2)),
+            for_backward: true,
         };
         let rays = RayInputs {
             origins: &self.batch.origins,
@@ -354,6 +356,11 @@ impl Trainer {
         let mut w = CheckpointWriter::new();
         save_model(&self.model, &mut w);
         self.adam.save_to(&mut w, "adam");
+        let grid = self.grid.snapshot();
+        w.add("occupancy.sdf", &[grid.sdf.len()], &grid.sdf);
+        w.set_metadata("occupancy.resolution", &grid.resolution.to_string());
+        w.set_metadata("occupancy.band", &format!("{:e}", grid.band));
+        w.set_metadata("occupancy.round", &grid.round.to_string());
         w.set_metadata("step", &self.step.to_string());
         w.set_metadata("lr_scale", &format!("{:e}", self.lr_scale));
         w.set_metadata("skipped_steps", &self.skipped_steps.to_string());
@@ -377,10 +384,25 @@ impl Trainer {
         self.lr_scale = meta("lr_scale")?.parse().context("lr_scale")?;
         self.skipped_steps = meta("skipped_steps")?.parse().context("skipped_steps")?;
         self.apply_step_schedule();
-        // The grid in use at this step was measured at the last refresh step;
-        // it is a pure function of the field at that time, so a refresh here
-        // reproduces it exactly when checkpoints fall on refresh steps.
-        self.refresh_grid();
+        // The occupancy grid as it was (measured at the last refresh step,
+        // from the field of that time), so that the run continues exactly.
+        let resolution: usize = meta("occupancy.resolution")?
+            .parse()
+            .context("occupancy.resolution")?;
+        let mut sdf = vec![0.0f32; resolution.pow(3)];
+        ck.read_into("occupancy.sdf", &[sdf.len()], &mut sdf)
+            .with_context(|| format!("{}: occupancy grid", path.display()))?;
+        let snapshot = OccupancySnapshot {
+            resolution,
+            sdf,
+            band: meta("occupancy.band")?.parse().context("occupancy.band")?,
+            round: meta("occupancy.round")?
+                .parse()
+                .context("occupancy.round")?,
+        };
+        self.grid
+            .restore(&snapshot)
+            .with_context(|| format!("{}: occupancy grid", path.display()))?;
         Ok(())
     }
 }

@@ -67,6 +67,7 @@ fn setup() -> Setup {
             fd_step: 0.02,
             cos_anneal_ratio: 0.6,
             jitter_seed: None,
+            for_backward: true,
         },
     }
 }

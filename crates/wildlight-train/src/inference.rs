@@ -1,0 +1,151 @@
+//! Using a trained run: loading its model, rendering a capture's views with
+//! every map, and writing them in the layout `wildlight eval` reads
+//! (`OUT/<kind>/NNN.exr` + `OUT/views.json`).
+
+use crate::config::TrainConfig;
+use crate::model::Model;
+use crate::pipeline::{Pipeline, eval_sdf};
+use crate::render_view::{ViewMaps, render_view};
+use crate::run::{CHECKPOINT_FILE, RunInfo, read_run};
+use crate::trainer::load_model;
+use anyhow::Context;
+use std::path::Path;
+use wildlight_data::exr_io::{write_exr_channels, write_exr_rgb};
+use wildlight_data::writer::indexed_file_name;
+use wildlight_data::{Camera, RgbImage};
+use wildlight_fields::{Checkpoint, FieldContext};
+use wildlight_render::{OccupancyGrid, OccupancySettings, RefreshMode, Sampler, SamplerSettings};
+
+/// A trained model ready to render.
+pub struct TrainedRun {
+    /// The run's configuration.
+    pub config: TrainConfig,
+    /// The run's description (dataset path).
+    pub info: RunInfo,
+    /// The trained model.
+    pub model: Model,
+    /// Occupancy grid measured from the trained SDF.
+    pub grid: OccupancyGrid,
+    /// Render buffers.
+    pub pipeline: Pipeline,
+}
+
+impl TrainedRun {
+    /// Loads `RUN/config.toml`, `RUN/run.json` and `RUN/checkpoint.safetensors`.
+    pub fn load(run: &Path) -> anyhow::Result<Self> {
+        let (config, info) = read_run(run)?;
+        let ckpt_path = run.join(CHECKPOINT_FILE);
+        let ck = Checkpoint::load(&ckpt_path)
+            .with_context(|| format!("cannot read the checkpoint {}", ckpt_path.display()))?;
+        let mut model = Model::new(&config.model, config.seed)?;
+        load_model(&mut model, &ck)?;
+        let mut grid = OccupancyGrid::new(OccupancySettings {
+            resolution: config.sampling.grid_resolution,
+            ..OccupancySettings::default()
+        })?;
+        let mut ctx = FieldContext::new();
+        let s = model.s();
+        grid.refresh(
+            |p: &[[f32; 3]], o: &mut [f32]| eval_sdf(&model, p, o, &mut ctx),
+            s,
+            RefreshMode::Full,
+        );
+        let sampler = Sampler::new(SamplerSettings {
+            coarse_steps_per_cell: config.sampling.coarse_steps_per_cell,
+            max_coarse: config.sampling.max_coarse,
+            n_fine: config.sampling.fine_samples,
+            ..SamplerSettings::default()
+        })?;
+        Ok(Self {
+            config,
+            info,
+            model,
+            grid,
+            pipeline: Pipeline::new(sampler),
+        })
+    }
+
+    /// The finite-difference step of the normals at the end of training.
+    pub fn fd_step(&self) -> f64 {
+        let f = &self.model.sdf.field;
+        f.cell_size(f.active_levels.max(1) - 1)
+    }
+
+    /// Renders `camera` with flash energy `energy` at `scale` × its resolution.
+    pub fn render(&mut self, camera: &Camera, energy: [f32; 3], scale: f64) -> ViewMaps {
+        let fd = self.fd_step();
+        render_view(
+            &self.model,
+            &self.grid,
+            &mut self.pipeline,
+            camera,
+            energy,
+            scale,
+            fd,
+        )
+    }
+}
+
+fn to_image(w: u32, h: u32, px: impl Iterator<Item = [f32; 3]>) -> RgbImage {
+    RgbImage {
+        width: w,
+        height: h,
+        data: px.flat_map(|p| p.into_iter()).collect(),
+    }
+}
+
+/// Writes every map of `maps` as `out/<kind>/NNN.exr` (kinds of the
+/// conventions: image, flash, ambient, normal, depth (world units),
+/// base_color, roughness, metallic, params (9 channels), acc).
+pub fn write_view_maps(
+    out: &Path,
+    index: usize,
+    maps: &ViewMaps,
+    world_scale: f64,
+) -> anyhow::Result<()> {
+    let (w, h) = (maps.width, maps.height);
+    let name = indexed_file_name(index, "exr");
+    let write = |kind: &str, img: RgbImage| -> anyhow::Result<()> {
+        let dir = out.join(kind);
+        std::fs::create_dir_all(&dir)
+            .with_context(|| format!("cannot create {}", dir.display()))?;
+        write_exr_rgb(&dir.join(&name), &img)
+            .with_context(|| format!("cannot write {}", dir.join(&name).display()))
+    };
+    write("image", to_image(w, h, maps.rgb.iter().copied()))?;
+    write("flash", to_image(w, h, maps.flash.iter().copied()))?;
+    write("ambient", to_image(w, h, maps.ambient.iter().copied()))?;
+    write("normal", to_image(w, h, maps.normal.iter().copied()))?;
+    let ws = world_scale as f32;
+    write(
+        "depth",
+        to_image(w, h, maps.depth.iter().map(|d| [d * ws; 3])),
+    )?;
+    write(
+        "base_color",
+        to_image(w, h, maps.params.iter().map(|p| [p[0], p[1], p[2]])),
+    )?;
+    write(
+        "roughness",
+        to_image(w, h, maps.params.iter().map(|p| [p[3]; 3])),
+    )?;
+    write(
+        "metallic",
+        to_image(w, h, maps.params.iter().map(|p| [p[6]; 3])),
+    )?;
+    write("acc", to_image(w, h, maps.acc.iter().map(|a| [*a; 3])))?;
+    let dir = out.join("params");
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let chans: Vec<Vec<f32>> = (0..9)
+        .map(|c| maps.params.iter().map(|p| p[c]).collect())
+        .collect();
+    let names: Vec<String> = (0..9).map(|c| format!("p{c}")).collect();
+    let list: Vec<(&str, &[f32])> = names
+        .iter()
+        .map(String::as_str)
+        .zip(chans.iter().map(Vec::as_slice))
+        .collect();
+    write_exr_channels(&dir.join(&name), w, h, &list)
+        .with_context(|| format!("cannot write {}", dir.join(&name).display()))?;
+    Ok(())
+}
