@@ -1,10 +1,85 @@
-//! `wildlight export`.
+//! `wildlight export`: turns a trained run into a PBR asset (SPEC §9):
+//! `model.glb`, `model.obj` + `model.mtl` + PNG maps, and `mesh_raw.ply`.
+
+use anyhow::{Context, bail};
+use std::path::PathBuf;
+use wildlight_export::{AtlasOptions, ExportOptions, MarchingOptions, export_to_dir};
+use wildlight_train::inference::{ExportSource, TrainedRun};
 
 /// Options of `wildlight export`.
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+pub struct Args {
+    /// The run folder written by `wildlight train`.
+    #[arg(long, value_name = "RUN")]
+    pub run: PathBuf,
+    /// Output folder.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Marching-cubes cells per axis over the unit sphere's bounding cube.
+    #[arg(long, default_value_t = 512)]
+    pub resolution: u32,
+    /// Largest face count of the simplified mesh.
+    #[arg(long, default_value_t = 131_072)]
+    pub faces: usize,
+    /// Texture width and height in texels.
+    #[arg(long, default_value_t = 2048)]
+    pub texture: u32,
+    /// Keep vertices in the normalized frame instead of world units.
+    #[arg(long)]
+    pub normalized: bool,
+    /// No progress bars.
+    #[arg(long)]
+    pub quiet: bool,
+}
 
 /// Runs `wildlight export`.
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`wildlight export` is not yet available in this version")
+pub fn run(args: Args) -> anyhow::Result<()> {
+    if !(16..=2048).contains(&args.resolution) {
+        bail!("--resolution {} is outside 16..=2048", args.resolution);
+    }
+    if !(64..=16384).contains(&args.texture) {
+        bail!("--texture {} is outside 64..=16384", args.texture);
+    }
+    if args.faces < 4 {
+        bail!("--faces {} is too small", args.faces);
+    }
+    let trained = TrainedRun::load(&args.run)?;
+    let cameras = wildlight_data::Dataset::load_cameras(&trained.info.data).with_context(|| {
+        format!(
+            "cannot read the cameras of the run's capture {} (needed for scale_mat)",
+            trained.info.data.display()
+        )
+    })?;
+    let scale_mat = cameras
+        .first()
+        .map(|c| c.scale_mat.as_mat4())
+        .context("the run's capture has no cameras")?;
+    let options = ExportOptions {
+        marching: MarchingOptions {
+            resolution: args.resolution,
+            ..MarchingOptions::default()
+        },
+        max_faces: args.faces,
+        atlas: AtlasOptions {
+            texture_size: args.texture,
+            ..AtlasOptions::default()
+        },
+        scale_mat,
+        world_units: !args.normalized,
+        progress: !args.quiet && std::io::IsTerminal::is_terminal(&std::io::stderr()),
+        ..ExportOptions::default()
+    };
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let source = ExportSource::new(&trained);
+    let (files, report) = export_to_dir(&source, &options, &args.out)
+        .with_context(|| format!("export of {} failed", args.run.display()))?;
+    eprintln!(
+        "wrote {}, {} and {}",
+        files.glb.display(),
+        files.obj.display(),
+        files.raw_ply.display()
+    );
+    eprintln!("{}", serde_json::to_string(&report)?);
+    Ok(())
 }
