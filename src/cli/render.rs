@@ -7,7 +7,7 @@ use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use wildlight_data::Dataset;
-use wildlight_train::inference::{TrainedRun, write_view_maps};
+use wildlight_train::inference::{TrainedRun, render_views_to_dir};
 
 /// Which cameras to render.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -85,13 +85,6 @@ fn parse_views(text: &str) -> anyhow::Result<Vec<usize>> {
     Ok(out)
 }
 
-#[derive(serde::Serialize)]
-struct ViewRecord {
-    index: usize,
-    split: &'static str,
-    flash: bool,
-}
-
 /// Runs `wildlight render`.
 pub fn run(args: Args) -> anyhow::Result<()> {
     if !(args.scale > 0.0 && args.scale <= 4.0) {
@@ -139,7 +132,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| args.run.join(format!("render-{split_name}")));
-    std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
     let bar = if args.quiet || !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
         ProgressBar::hidden()
     } else {
@@ -149,35 +141,33 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 .progress_chars("=> "),
         )
     };
-    let mut records = Vec::new();
-    for index in wanted {
-        let camera = cameras
-            .iter()
-            .find(|c| c.index == index)
-            .expect("checked above");
-        let energy = match args.flash {
+    let chosen: Vec<&wildlight_data::Camera> = wanted
+        .iter()
+        .map(|i| {
+            cameras
+                .iter()
+                .find(|c| c.index == *i)
+                .expect("checked above")
+        })
+        .collect();
+    if args.flash == Flash::On && capture_energy.is_none() {
+        bail!("--flash on: no view of {} has the flash on", data.display());
+    }
+    let flash = args.flash;
+    let records = render_views_to_dir(
+        &mut trained,
+        &chosen,
+        |camera| match flash {
             Flash::Off => [0.0; 3],
             Flash::AsCaptured => camera.light_energy.map(|e| e as f32),
-            Flash::On => capture_energy.with_context(|| {
-                format!("--flash on: no view of {} has the flash on", data.display())
-            })?,
-        };
-        let maps = trained.render(camera, energy, args.scale);
-        write_view_maps(&out, index, &maps, camera.world_scale())?;
-        records.push(ViewRecord {
-            index,
-            split: split_name,
-            flash: energy != [0.0; 3],
-        });
-        bar.inc(1);
-    }
+            Flash::On => capture_energy.unwrap_or([0.0; 3]),
+        },
+        split_name,
+        args.scale,
+        &out,
+        || bar.inc(1),
+    )?;
     bar.finish_and_clear();
-    let views_path = out.join("views.json");
-    let tmp = out.join("views.json.tmp");
-    std::fs::write(&tmp, serde_json::to_string_pretty(&records)?)
-        .with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, &views_path)
-        .with_context(|| format!("cannot write {}", views_path.display()))?;
     eprintln!("rendered {} views into {}", records.len(), out.display());
     Ok(())
 }

@@ -196,3 +196,48 @@ impl wildlight_export::FieldSource for ExportSource<'_> {
         self.fd_step as f32
     }
 }
+
+/// One entry of `views.json`.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct RenderedView {
+    /// Image index.
+    pub index: usize,
+    /// `train` or `val`.
+    pub split: &'static str,
+    /// Whether the flash was on in the rendering.
+    pub flash: bool,
+}
+
+/// Renders `cameras` (each with the flash energy `energy(camera)`) into
+/// `out/<kind>/NNN.exr` and writes `out/views.json`; `progress` is called
+/// after each view.
+pub fn render_views_to_dir(
+    trained: &mut TrainedRun,
+    cameras: &[&Camera],
+    energy: impl Fn(&Camera) -> [f32; 3],
+    split: &'static str,
+    scale: f64,
+    out: &Path,
+    mut progress: impl FnMut(),
+) -> anyhow::Result<Vec<RenderedView>> {
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let mut records = Vec::new();
+    for camera in cameras {
+        let e = energy(camera);
+        let maps = trained.render(camera, e, scale);
+        write_view_maps(out, camera.index, &maps, camera.world_scale())?;
+        records.push(RenderedView {
+            index: camera.index,
+            split,
+            flash: e != [0.0; 3],
+        });
+        progress();
+    }
+    let path = out.join("views.json");
+    wildlight_data::atomic::write_bytes_atomically(
+        &path,
+        serde_json::to_string_pretty(&records)?.as_bytes(),
+    )
+    .with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(records)
+}
