@@ -224,13 +224,7 @@ impl<T: Float + Default> Pipeline<T> {
             ..NeusSettings::default()
         };
         self.weights.forward(
-            &NeusInputs {
-                offsets,
-                ray_dirs: rays.dirs,
-                sdf: &ctx.sdf[..n],
-                sdf_grad: &ctx.gradient[..n],
-                delta: &self.samples.delta,
-            },
+            &neus_inputs(&self.samples, ctx, rays),
             model.sharpness,
             &neus,
         );
@@ -283,14 +277,7 @@ impl<T: Float + Default> Pipeline<T> {
         self.flash.clear();
         self.flash.resize(n, [T::ZERO; 3]);
         flash_forward(
-            &FlashInputs {
-                offsets,
-                ray_dirs: rays.dirs,
-                light_energy: rays.energy,
-                t: &self.samples.t,
-                sdf_grad: &ctx.gradient[..n],
-                params: &self.theta,
-            },
+            &flash_inputs(&self.samples, ctx, rays, &self.theta),
             model.log_gain,
             &model.config.brdf,
             &mut self.flash,
@@ -381,14 +368,7 @@ impl<T: Float + Default> Pipeline<T> {
             "Pipeline::backward after a forward pass without `for_backward`"
         );
         let d_log_gain = flash_backward(
-            &FlashInputs {
-                offsets,
-                ray_dirs: rays.dirs,
-                light_energy: rays.energy,
-                t: &self.samples.t,
-                sdf_grad: &ctx.gradient[..n],
-                params: &self.theta,
-            },
+            &flash_inputs(&self.samples, ctx, rays, &self.theta),
             model.log_gain,
             &model.config.brdf,
             Some(&self.flash_cache),
@@ -445,13 +425,7 @@ impl<T: Float + Default> Pipeline<T> {
             ..NeusSettings::default()
         };
         let d_v = self.weights.backward(
-            &NeusInputs {
-                offsets,
-                ray_dirs: rays.dirs,
-                sdf: &ctx.sdf[..n],
-                sdf_grad: &ctx.gradient[..n],
-                delta: &self.samples.delta,
-            },
+            &neus_inputs(&self.samples, ctx, rays),
             model.sharpness,
             &neus,
             &self.d_weight,
@@ -483,6 +457,39 @@ impl<T: Float + Default> Pipeline<T> {
             &self.d_grad,
             &mut grads.sdf,
         );
+    }
+}
+
+/// The NeuS kernel's view of a pass (the samples, not the eikonal points).
+fn neus_inputs<'a, T: Float>(
+    samples: &'a Samples<T>,
+    ctx: &'a NormalContext<T>,
+    rays: &RayInputs<'a, T>,
+) -> NeusInputs<'a, T> {
+    let n = samples.len();
+    NeusInputs {
+        offsets: &samples.offsets,
+        ray_dirs: rays.dirs,
+        sdf: &ctx.sdf[..n],
+        sdf_grad: &ctx.gradient[..n],
+        delta: &samples.delta,
+    }
+}
+
+/// The flash kernel's view of a pass.
+fn flash_inputs<'a, T: Float>(
+    samples: &'a Samples<T>,
+    ctx: &'a NormalContext<T>,
+    rays: &RayInputs<'a, T>,
+    theta: &'a [[T; PARAM_COUNT]],
+) -> FlashInputs<'a, T> {
+    FlashInputs {
+        offsets: &samples.offsets,
+        ray_dirs: rays.dirs,
+        light_energy: rays.energy,
+        t: &samples.t,
+        sdf_grad: &ctx.gradient[..samples.len()],
+        params: theta,
     }
 }
 
