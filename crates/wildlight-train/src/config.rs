@@ -269,6 +269,26 @@ impl Default for OutputConfig {
     }
 }
 
+impl SamplingConfig {
+    /// The occupancy grid settings.
+    pub fn occupancy(&self) -> wildlight_render::OccupancySettings {
+        wildlight_render::OccupancySettings {
+            resolution: self.grid_resolution,
+            ..wildlight_render::OccupancySettings::default()
+        }
+    }
+
+    /// The fast sampler's settings.
+    pub fn sampler(&self) -> wildlight_render::SamplerSettings {
+        wildlight_render::SamplerSettings {
+            coarse_steps_per_cell: self.coarse_steps_per_cell,
+            max_coarse: self.max_coarse,
+            n_fine: self.fine_samples,
+            ..wildlight_render::SamplerSettings::default()
+        }
+    }
+}
+
 impl TrainConfig {
     /// Parses a TOML configuration (missing keys take their defaults).
     pub fn from_toml(text: &str) -> Result<Self, toml::de::Error> {

@@ -14,7 +14,7 @@ use wildlight_data::exr_io::{write_exr_channels, write_exr_rgb};
 use wildlight_data::writer::indexed_file_name;
 use wildlight_data::{Camera, RgbImage};
 use wildlight_fields::{Checkpoint, FieldContext};
-use wildlight_render::{OccupancyGrid, OccupancySettings, RefreshMode, Sampler, SamplerSettings};
+use wildlight_render::{OccupancyGrid, RefreshMode, Sampler};
 
 /// A trained model ready to render.
 pub struct TrainedRun {
@@ -39,10 +39,7 @@ impl TrainedRun {
             .with_context(|| format!("cannot read the checkpoint {}", ckpt_path.display()))?;
         let mut model = Model::new(&config.model, config.seed)?;
         load_model(&mut model, &ck)?;
-        let mut grid = OccupancyGrid::new(OccupancySettings {
-            resolution: config.sampling.grid_resolution,
-            ..OccupancySettings::default()
-        })?;
+        let mut grid = OccupancyGrid::new(config.sampling.occupancy())?;
         let mut ctx = FieldContext::new();
         let s = model.s();
         grid.refresh(
@@ -50,12 +47,7 @@ impl TrainedRun {
             s,
             RefreshMode::Full,
         );
-        let sampler = Sampler::new(SamplerSettings {
-            coarse_steps_per_cell: config.sampling.coarse_steps_per_cell,
-            max_coarse: config.sampling.max_coarse,
-            n_fine: config.sampling.fine_samples,
-            ..SamplerSettings::default()
-        })?;
+        let sampler = Sampler::new(config.sampling.sampler())?;
         Ok(Self {
             config,
             info,
@@ -67,8 +59,7 @@ impl TrainedRun {
 
     /// The finite-difference step of the normals at the end of training.
     pub fn fd_step(&self) -> f64 {
-        let f = &self.model.sdf.field;
-        f.cell_size(f.active_levels.max(1) - 1)
+        self.model.fd_step()
     }
 
     /// Renders `camera` with flash energy `energy` at `scale` × its resolution.

@@ -138,6 +138,13 @@ impl<T: Float> Model<T> {
         self.material.active_levels = material_levels.min(self.config.material.levels);
     }
 
+    /// The finite-difference step of the SDF normals: the cell size of the
+    /// finest active SDF level (it shrinks as levels activate).
+    pub fn fd_step(&self) -> f64 {
+        let f = &self.sdf.field;
+        f.cell_size(f.active_levels.max(1) - 1)
+    }
+
     /// Whether every parameter is finite.
     pub fn all_finite(&self) -> bool {
         let f = |n: &NeuralField<T>| {

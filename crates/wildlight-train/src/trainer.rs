@@ -16,10 +16,7 @@ use std::path::Path;
 use wildlight_fields::{
     Adam, AdamConfig, Checkpoint, CheckpointWriter, Checkpointable, Decay, FieldContext, LrSchedule,
 };
-use wildlight_render::{
-    OccupancyGrid, OccupancySettings, OccupancySnapshot, RefreshMode, Sampler, SamplerSettings,
-    cos_anneal_ratio,
-};
+use wildlight_render::{OccupancyGrid, OccupancySnapshot, RefreshMode, Sampler, cos_anneal_ratio};
 
 /// What one step measured.
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -139,16 +136,8 @@ impl Trainer {
                 },
             ),
         };
-        let grid = OccupancyGrid::new(OccupancySettings {
-            resolution: config.sampling.grid_resolution,
-            ..OccupancySettings::default()
-        })?;
-        let sampler = Sampler::new(SamplerSettings {
-            coarse_steps_per_cell: config.sampling.coarse_steps_per_cell,
-            max_coarse: config.sampling.max_coarse,
-            n_fine: config.sampling.fine_samples,
-            ..SamplerSettings::default()
-        })?;
+        let grid = OccupancyGrid::new(config.sampling.occupancy())?;
+        let sampler = Sampler::new(config.sampling.sampler())?;
         let schedule = LrSchedule {
             warmup_steps: o.warmup_steps,
             warmup_start_factor: 0.01,
@@ -200,8 +189,7 @@ impl Trainer {
     /// The finite-difference step of the normals: the cell size of the
     /// finest active SDF level (shrinks as levels activate).
     pub fn fd_step(&self) -> f64 {
-        let f = &self.model.sdf.field;
-        f.cell_size(f.active_levels.max(1) - 1)
+        self.model.fd_step()
     }
 
     /// Re-measures the occupancy grid from the current SDF.
