@@ -5,8 +5,9 @@
 //! sphere — 16 stratified over the chord and 48 clustered (Gaussian, σ = 0.02)
 //! around the ray's hit of a sphere of radius 0.5 — in ray order.
 
+use crate::hash_grid::BlockLayout;
 use crate::hash_grid::HashGridConfig;
-use crate::mlp::{CHUNK_ROWS, Mlp, MlpContext};
+use crate::mlp::{CHUNK_ROWS, Mlp, MlpChunk, MlpScratch};
 use crate::neural_field::FieldContext;
 use crate::sdf_field::{FdScheme, NormalContext, SdfField, SdfFieldConfig};
 use rand::{Rng, SeedableRng};
@@ -197,31 +198,51 @@ pub fn run(config: &BenchConfig) -> Result<BenchReport, crate::FieldError> {
         field.backward_with_normals(&mut nctx, &d_sdf, &d_feat, &d_grad, &mut grads);
     });
 
-    // Component timings.
+    // Component timings, on the buffers the field uses: column-major chunk
+    // inputs, the encoding level-major over the whole batch.
     let grid = &field.field.grid;
     let n_enc = grid.n_outputs();
     let unit: Vec<[f32; 3]> = x.iter().map(|p| p.map(|v| (v + 1.0) * 0.5)).collect();
-    let mut enc = vec![0.0f32; n * n_enc];
+    let mlp: &Mlp<f32> = &field.field.mlp;
+    let n_in = mlp.config().n_input;
+    let enc_col = field.field.encoding_column();
+    let mut chunks: Vec<MlpChunk<f32>> = (0..n.div_ceil(CHUNK_ROWS))
+        .map(|c| {
+            let mut ch = MlpChunk::default();
+            mlp.prepare_chunk(&mut ch, CHUNK_ROWS.min(n - c * CHUNK_ROWS));
+            ch
+        })
+        .collect();
+    let layout = BlockLayout::column_major(CHUNK_ROWS);
     let levels = grid.config().n_levels;
     let (t_enc_fwd, _) = time(config.reps, || {
-        enc.par_chunks_mut(CHUNK_ROWS * n_enc)
-            .zip(unit.par_chunks(CHUNK_ROWS))
-            .for_each(|(o, u)| grid.encode(u, o, n_enc, 0, levels));
+        let mut outs: Vec<&mut [f32]> = chunks.iter_mut().map(|c| c.input.as_mut_slice()).collect();
+        grid.encode_blocks(&unit, &mut outs, layout, enc_col, levels);
     });
-    let d_enc: Vec<f32> = (0..n * n_enc).map(|i| d_out[i % d_out.len()]).collect();
+    let d_enc: Vec<Vec<f32>> = chunks
+        .iter()
+        .enumerate()
+        .map(|(c, ch)| {
+            (0..ch.input.len())
+                .map(|i| d_out[(c * CHUNK_ROWS * n_in + i) % d_out.len()])
+                .collect()
+        })
+        .collect();
+    let blocks: Vec<&[f32]> = d_enc.iter().map(|v| v.as_slice()).collect();
     let mut g_grid = crate::memory::huge_vec::<f32>(grid.n_params());
-    let blocks: Vec<&[f32]> = d_enc.chunks(CHUNK_ROWS * n_enc).collect();
     let (t_enc_bwd, _) = time(config.reps, || {
         g_grid.fill(0.0);
-        grid.backward_params(&unit, &blocks, CHUNK_ROWS, n_enc, 0, levels, &mut g_grid);
+        grid.backward_params_blocks(&unit, &blocks, layout, enc_col, levels, &mut g_grid);
     });
+    let d_rows: Vec<f32> = (0..n * n_enc).map(|i| d_out[i % d_out.len()]).collect();
+    let row_blocks: Vec<&[f32]> = d_rows.chunks(CHUNK_ROWS * n_enc).collect();
     let mut scratch = Vec::new();
     let threads = rayon::current_num_threads();
     let (t_enc_bwd_bufs, _) = time(config.reps, || {
         g_grid.fill(0.0);
         grid.backward_params_per_part_buffers(
             &unit,
-            &blocks,
+            &row_blocks,
             CHUNK_ROWS,
             n_enc,
             0,
@@ -232,14 +253,19 @@ pub fn run(config: &BenchConfig) -> Result<BenchReport, crate::FieldError> {
         );
     });
     drop(scratch);
-    let mlp: &Mlp<f32> = &field.field.mlp;
-    let n_in = mlp.config().n_input;
-    let input: Vec<f32> = (0..n * n_in).map(|i| enc[i % enc.len()]).collect();
-    let mut mctx = MlpContext::new();
-    let (t_mlp_fwd, _) = time(config.reps, || mlp.forward(&input, &mut mctx));
+    let (t_mlp_fwd, _) = time(config.reps, || {
+        chunks.par_iter_mut().for_each(|ch| mlp.forward_chunk(ch));
+    });
     let mut g_mlp = vec![0.0f32; mlp.n_params()];
+    let n_out = mlp.config().n_output;
     let (t_mlp_bwd, _) = time(config.reps, || {
-        mlp.backward(&mut mctx, &d_out, &mut g_mlp, None)
+        chunks
+            .par_iter_mut()
+            .zip(d_out.par_chunks(CHUNK_ROWS * n_out))
+            .for_each_init(MlpScratch::default, |sc, (ch, d)| {
+                mlp.backward_chunk(ch, d, sc)
+            });
+        Mlp::reduce_chunk_grads(&chunks, &mut g_mlp);
     });
 
     let enc_t = t_enc_fwd + t_enc_bwd;

@@ -66,6 +66,45 @@ pub struct LevelInfo {
     pub dense: bool,
 }
 
+/// Where the values of blocks of rows live (encoder outputs or their
+/// gradients): row `r` of a block, column `j`, is at
+/// `r · row_stride + j · col_stride`; block `b` holds rows `b · rows ..`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BlockLayout {
+    /// Rows per block (the last block may hold fewer).
+    pub rows: usize,
+    /// Distance between consecutive rows.
+    pub row_stride: usize,
+    /// Distance between consecutive columns.
+    pub col_stride: usize,
+}
+
+impl BlockLayout {
+    /// Row-major blocks of `rows` rows, `stride` values per row.
+    pub fn row_major(rows: usize, stride: usize) -> Self {
+        BlockLayout {
+            rows,
+            row_stride: stride,
+            col_stride: 1,
+        }
+    }
+    /// Column-major blocks of `rows` rows (each column contiguous).
+    pub fn column_major(rows: usize) -> Self {
+        BlockLayout {
+            rows,
+            row_stride: 1,
+            col_stride: rows,
+        }
+    }
+    /// Offset of the last value of `rows` rows up to column `col` (inclusive).
+    pub fn last_offset(&self, rows: usize, col: usize) -> usize {
+        (rows - 1) * self.row_stride + col * self.col_stride
+    }
+}
+
+/// Points per rayon task of [`HashGrid::encode_blocks`].
+const ENCODE_TASK_POINTS: usize = 4096;
+
 /// Points located (and prefetched) together before their table accesses.
 const BLOCK: usize = 32;
 
@@ -333,109 +372,203 @@ impl<T: Real> HashGrid<T> {
         col: usize,
         active_levels: usize,
     ) {
-        let f = self.config.n_features;
         assert!(col + self.n_outputs() <= stride, "encode: stride too small");
         assert!(out.len() >= x.len().saturating_sub(1) * stride + col + self.n_outputs());
-        match f {
-            1 => self.encode_f::<1>(x, out, stride, col, active_levels),
-            2 => self.encode_f::<2>(x, out, stride, col, active_levels),
-            4 => self.encode_f::<4>(x, out, stride, col, active_levels),
-            _ => self.encode_f::<8>(x, out, stride, col, active_levels),
+        let layout = BlockLayout::row_major(x.len().max(1), stride);
+        for l in 0..self.levels.len() {
+            self.encode_level_blocks(l, x, &mut [&mut *out], layout, col, l < active_levels);
         }
     }
 
-    fn encode_f<const F: usize>(
+    /// Encodes all points `x` into blocks of rows laid out as `layout`
+    /// (columns as in [`HashGrid::encode_level_blocks`]), level-major: every
+    /// point visits level 0, then level 1, …, so that one level's table stays
+    /// in the cache. Parallel (rayon) over groups of blocks within a level;
+    /// each value is computed independently, so results do not depend on
+    /// the thread count.
+    pub fn encode_blocks(
         &self,
         x: &[[T; 3]],
-        out: &mut [T],
-        stride: usize,
+        out_blocks: &mut [&mut [T]],
+        layout: BlockLayout,
         col: usize,
         active_levels: usize,
+    ) {
+        assert!(layout.rows > 0, "encode: empty blocks");
+        let n_blocks = x.len().div_ceil(layout.rows);
+        assert!(out_blocks.len() >= n_blocks, "encode: too few blocks");
+        let group = (ENCODE_TASK_POINTS / layout.rows).max(1);
+        for l in 0..self.levels.len() {
+            out_blocks[..n_blocks]
+                .par_chunks_mut(group)
+                .enumerate()
+                .for_each(|(g, outs)| {
+                    let start = g * group * layout.rows;
+                    let end = (start + outs.len() * layout.rows).min(x.len());
+                    self.encode_level_blocks(
+                        l,
+                        &x[start..end],
+                        outs,
+                        layout,
+                        col,
+                        l < active_levels,
+                    );
+                });
+        }
+    }
+
+    /// Encodes level `level` of the points `x` into blocks of rows laid out as
+    /// `layout` (point `p` is row `p mod layout.rows` of block `p / layout.rows`);
+    /// feature `f` goes to column `col + level·F + f`. With `active == false`
+    /// the level outputs 0 (coarse-to-fine training). Runs on the calling thread.
+    ///
+    /// Called level after level over a large batch, this keeps one level's
+    /// table in the cache while all points visit it.
+    pub fn encode_level_blocks(
+        &self,
+        level: usize,
+        x: &[[T; 3]],
+        out_blocks: &mut [&mut [T]],
+        layout: BlockLayout,
+        col: usize,
+        active: bool,
+    ) {
+        let f = self.config.n_features;
+        assert!(level < self.levels.len(), "encode: level out of range");
+        assert!(layout.rows > 0, "encode: empty blocks");
+        assert!(
+            out_blocks.len() * layout.rows >= x.len(),
+            "encode: too few blocks"
+        );
+        let c0 = col + level * f;
+        for (b, blk) in out_blocks.iter().enumerate() {
+            let rows = layout.rows.min(x.len().saturating_sub(b * layout.rows));
+            if rows > 0 {
+                assert!(
+                    blk.len() > layout.last_offset(rows, c0 + f - 1),
+                    "encode: output block {b} too small"
+                );
+            }
+        }
+        if !active {
+            let mut p = 0;
+            for blk in out_blocks.iter_mut() {
+                for r in 0..layout.rows.min(x.len() - p.min(x.len())) {
+                    for k in 0..f {
+                        blk[r * layout.row_stride + (c0 + k) * layout.col_stride] = T::ZERO;
+                    }
+                }
+                p += layout.rows;
+            }
+            return;
+        }
+        match f {
+            1 => self.encode_level_f::<1>(level, x, out_blocks, layout, c0),
+            2 => self.encode_level_f::<2>(level, x, out_blocks, layout, c0),
+            4 => self.encode_level_f::<4>(level, x, out_blocks, layout, c0),
+            _ => self.encode_level_f::<8>(level, x, out_blocks, layout, c0),
+        }
+    }
+
+    fn encode_level_f<const F: usize>(
+        &self,
+        level: usize,
+        x: &[[T; 3]],
+        out_blocks: &mut [&mut [T]],
+        layout: BlockLayout,
+        c0: usize,
     ) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
         {
             // SAFETY: the CPU supports the enabled features (checked just above).
-            unsafe { self.encode_f_avx2::<F>(x, out, stride, col, active_levels) };
+            unsafe { self.encode_level_avx2::<F>(level, x, out_blocks, layout, c0) };
             return;
         }
-        self.encode_f_generic::<F>(x, out, stride, col, active_levels)
+        self.encode_level_generic::<F>(level, x, out_blocks, layout, c0)
     }
 
     /// The kernel compiled with AVX2 (same arithmetic, no FMA contraction, so
     /// results equal the generic build's).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    unsafe fn encode_f_avx2<const F: usize>(
+    unsafe fn encode_level_avx2<const F: usize>(
         &self,
+        level: usize,
         x: &[[T; 3]],
-        out: &mut [T],
-        stride: usize,
-        col: usize,
-        active_levels: usize,
+        out_blocks: &mut [&mut [T]],
+        layout: BlockLayout,
+        c0: usize,
     ) {
-        self.encode_f_generic::<F>(x, out, stride, col, active_levels)
+        self.encode_level_generic::<F>(level, x, out_blocks, layout, c0)
     }
 
+    /// The forward kernel of one level (sizes checked by the caller).
     #[inline(always)]
-    fn encode_f_generic<const F: usize>(
+    fn encode_level_generic<const F: usize>(
         &self,
+        level: usize,
         x: &[[T; 3]],
-        out: &mut [T],
-        stride: usize,
-        col: usize,
-        active_levels: usize,
+        out_blocks: &mut [&mut [T]],
+        layout: BlockLayout,
+        c0: usize,
     ) {
+        let level = &self.levels[level];
+        let table = &self.params[level.param_offset..level.param_offset + level.entries * F];
         let mut cells = [BlockCells::new(), BlockCells::new()];
-        for (l, level) in self.levels.iter().enumerate() {
-            let c0 = col + l * F;
-            if l >= active_levels {
-                for p in 0..x.len() {
-                    out[p * stride + c0..p * stride + c0 + F].fill(T::ZERO);
-                }
-                continue;
+        let n_blocks = x.len().div_ceil(BLOCK);
+        let block = |b: usize| &x[b * BLOCK..((b + 1) * BLOCK).min(x.len())];
+        let (rs, cs) = (layout.row_stride, layout.col_stride);
+        // Software pipeline: block b+1 is located and its table lines
+        // prefetched before block b is gathered, so misses overlap work.
+        if n_blocks > 0 {
+            cells[0].locate(level, block(0));
+            if !level.dense {
+                cells[0].prefetch(table.as_ptr(), F, block(0).len());
             }
-            let table = &self.params[level.param_offset..level.param_offset + level.entries * F];
-            let n_blocks = x.len().div_ceil(BLOCK);
-            let block = |b: usize| &x[b * BLOCK..((b + 1) * BLOCK).min(x.len())];
-            // Software pipeline: block b+1 is located and its table lines
-            // prefetched before block b is gathered, so misses overlap work.
-            if n_blocks > 0 {
-                cells[0].locate(level, block(0));
+        }
+        // Output position of the current point: block `ob`, row `or`.
+        let (mut ob, mut or) = (0usize, 0usize);
+        for b in 0..n_blocks {
+            let (cur, next) = if b % 2 == 0 {
+                let (a, c) = cells.split_at_mut(1);
+                (&a[0], &mut c[0])
+            } else {
+                let (a, c) = cells.split_at_mut(1);
+                (&c[0], &mut a[0])
+            };
+            if b + 1 < n_blocks {
+                next.locate(level, block(b + 1));
                 if !level.dense {
-                    cells[0].prefetch(table.as_ptr(), F, block(0).len());
+                    next.prefetch(table.as_ptr(), F, block(b + 1).len());
                 }
             }
-            for b in 0..n_blocks {
-                let (cur, next) = if b % 2 == 0 {
-                    let (a, c) = cells.split_at_mut(1);
-                    (&a[0], &mut c[0])
-                } else {
-                    let (a, c) = cells.split_at_mut(1);
-                    (&c[0], &mut a[0])
-                };
-                if b + 1 < n_blocks {
-                    next.locate(level, block(b + 1));
-                    if !level.dense {
-                        next.prefetch(table.as_ptr(), F, block(b + 1).len());
+            for i in 0..block(b).len() {
+                let mut acc = [T::ZERO; F];
+                for c in 0..8 {
+                    let e = cur.index[c][i] as usize * F;
+                    debug_assert!(e + F <= table.len());
+                    // SAFETY: `locate` yields indices below the level's entry
+                    // count (dense: at most (r+1)³ − 1; hashed: masked by T − 1),
+                    // and `table` holds `entries · F` values.
+                    let v: &[T; F] = unsafe { &*(table.as_ptr().add(e) as *const [T; F]) };
+                    let w = cur.weight[c][i];
+                    for k in 0..F {
+                        acc[k] += w * v[k];
                     }
                 }
-                for i in 0..block(b).len() {
-                    let mut acc = [T::ZERO; F];
-                    for c in 0..8 {
-                        let e = cur.index[c][i] as usize * F;
-                        debug_assert!(e + F <= table.len());
-                        // SAFETY: `locate` yields indices below the level's entry
-                        // count (dense: at most (r+1)³ − 1; hashed: masked by T − 1),
-                        // and `table` holds `entries · F` values.
-                        let v: &[T; F] = unsafe { &*(table.as_ptr().add(e) as *const [T; F]) };
-                        let w = cur.weight[c][i];
-                        for k in 0..F {
-                            acc[k] += w * v[k];
-                        }
-                    }
-                    let o = (b * BLOCK + i) * stride + c0;
-                    out[o..o + F].copy_from_slice(&acc);
+                let out = &mut *out_blocks[ob];
+                let o = or * rs + c0 * cs;
+                debug_assert!(o + (F - 1) * cs < out.len());
+                for k in 0..F {
+                    // SAFETY: the caller checked that every block holds its
+                    // rows' columns `c0 .. c0 + F` (`BlockLayout::last_offset`).
+                    unsafe { *out.get_unchecked_mut(o + k * cs) = acc[k] };
+                }
+                or += 1;
+                if or == layout.rows {
+                    or = 0;
+                    ob += 1;
                 }
             }
         }
@@ -457,13 +590,33 @@ impl<T: Real> HashGrid<T> {
         active_levels: usize,
         grad: &mut [T],
     ) {
+        self.backward_params_blocks(
+            x,
+            d_out_blocks,
+            BlockLayout::row_major(block_rows, stride),
+            col,
+            active_levels,
+            grad,
+        )
+    }
+
+    /// [`HashGrid::backward_params`] for upstream gradients in blocks of any
+    /// [`BlockLayout`] (level `l` feature `f` of a row in column `col + l·F + f`).
+    pub fn backward_params_blocks(
+        &self,
+        x: &[[T; 3]],
+        d_out_blocks: &[&[T]],
+        layout: BlockLayout,
+        col: usize,
+        active_levels: usize,
+        grad: &mut [T],
+    ) {
         assert_eq!(
             grad.len(),
             self.params.len(),
             "backward_params: grad length"
         );
-        assert!(block_rows > 0);
-        assert!(d_out_blocks.len() * block_rows >= x.len());
+        self.check_blocks(x.len(), d_out_blocks, layout, col);
         let f = self.config.n_features;
         // Split the gradient into disjoint per-level slices.
         let mut slices: Vec<(usize, &mut [T])> = Vec::with_capacity(self.levels.len());
@@ -477,21 +630,35 @@ impl<T: Real> HashGrid<T> {
             .into_par_iter()
             .filter(|(l, _)| *l < active_levels)
             .for_each(|(l, g)| match f {
-                1 => self.backward_level::<1>(l, x, d_out_blocks, block_rows, stride, col, g),
-                2 => self.backward_level::<2>(l, x, d_out_blocks, block_rows, stride, col, g),
-                4 => self.backward_level::<4>(l, x, d_out_blocks, block_rows, stride, col, g),
-                _ => self.backward_level::<8>(l, x, d_out_blocks, block_rows, stride, col, g),
+                1 => self.backward_level::<1>(l, x, d_out_blocks, layout, col, g),
+                2 => self.backward_level::<2>(l, x, d_out_blocks, layout, col, g),
+                4 => self.backward_level::<4>(l, x, d_out_blocks, layout, col, g),
+                _ => self.backward_level::<8>(l, x, d_out_blocks, layout, col, g),
             });
     }
 
-    #[allow(clippy::too_many_arguments)]
+    /// Checks that `blocks` hold the encoding columns of `n` rows laid out as `layout`.
+    fn check_blocks(&self, n: usize, blocks: &[&[T]], layout: BlockLayout, col: usize) {
+        assert!(layout.rows > 0, "hash grid: empty blocks");
+        assert!(blocks.len() * layout.rows >= n, "hash grid: too few blocks");
+        let last_col = col + self.n_outputs() - 1;
+        for (b, blk) in blocks.iter().enumerate() {
+            let rows = layout.rows.min(n.saturating_sub(b * layout.rows));
+            if rows > 0 {
+                assert!(
+                    blk.len() > layout.last_offset(rows, last_col),
+                    "hash grid: block {b} too small"
+                );
+            }
+        }
+    }
+
     fn backward_level<const F: usize>(
         &self,
         l: usize,
         x: &[[T; 3]],
         d_out_blocks: &[&[T]],
-        block_rows: usize,
-        stride: usize,
+        layout: BlockLayout,
         col: usize,
         g: &mut [T],
     ) {
@@ -499,44 +666,40 @@ impl<T: Real> HashGrid<T> {
         if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
         {
             // SAFETY: the CPU supports the enabled features (checked just above).
-            unsafe {
-                self.backward_level_avx2::<F>(l, x, d_out_blocks, block_rows, stride, col, g)
-            };
+            unsafe { self.backward_level_avx2::<F>(l, x, d_out_blocks, layout, col, g) };
             return;
         }
-        self.backward_level_generic::<F>(l, x, d_out_blocks, block_rows, stride, col, g)
+        self.backward_level_generic::<F>(l, x, d_out_blocks, layout, col, g)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    #[allow(clippy::too_many_arguments)]
     unsafe fn backward_level_avx2<const F: usize>(
         &self,
         l: usize,
         x: &[[T; 3]],
         d_out_blocks: &[&[T]],
-        block_rows: usize,
-        stride: usize,
+        layout: BlockLayout,
         col: usize,
         g: &mut [T],
     ) {
-        self.backward_level_generic::<F>(l, x, d_out_blocks, block_rows, stride, col, g)
+        self.backward_level_generic::<F>(l, x, d_out_blocks, layout, col, g)
     }
 
+    /// The table-gradient kernel of one level (sizes checked by the caller).
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
     fn backward_level_generic<const F: usize>(
         &self,
         l: usize,
         x: &[[T; 3]],
         d_out_blocks: &[&[T]],
-        block_rows: usize,
-        stride: usize,
+        layout: BlockLayout,
         col: usize,
         g: &mut [T],
     ) {
         let level = &self.levels[l];
         let c0 = col + l * F;
+        let (rs, cs) = (layout.row_stride, layout.col_stride);
         let n = x.len();
         let n_blocks = n.div_ceil(BLOCK);
         let pts = |b: usize| &x[b * BLOCK..((b + 1) * BLOCK).min(n)];
@@ -547,6 +710,7 @@ impl<T: Real> HashGrid<T> {
                 cells[0].prefetch(g.as_ptr(), F, pts(0).len());
             }
         }
+        let (mut ob, mut or) = (0usize, 0usize);
         for b in 0..n_blocks {
             let (cur, next) = if b % 2 == 0 {
                 let (a, c) = cells.split_at_mut(1);
@@ -562,22 +726,29 @@ impl<T: Real> HashGrid<T> {
                 }
             }
             for i in 0..pts(b).len() {
-                let p = b * BLOCK + i;
-                let blk = d_out_blocks[p / block_rows];
-                let r = p % block_rows;
-                let d: [T; F] = blk[r * stride + c0..r * stride + c0 + F]
-                    .try_into()
-                    .expect("F features");
+                let blk = d_out_blocks[ob];
+                let o = or * rs + c0 * cs;
+                debug_assert!(o + (F - 1) * cs < blk.len());
+                let mut d = [T::ZERO; F];
+                for k in 0..F {
+                    // SAFETY: `check_blocks` bounded every row's encoding columns.
+                    d[k] = unsafe { *blk.get_unchecked(o + k * cs) };
+                }
                 for c in 0..8 {
                     let e = cur.index[c][i] as usize * F;
                     let w = cur.weight[c][i];
                     debug_assert!(e + F <= g.len());
-                    // SAFETY: as in `encode_f_generic`, indices are below the
+                    // SAFETY: as in `encode_level_generic`, indices are below the
                     // level's entry count and `g` holds `entries · F` values.
                     let gv: &mut [T; F] = unsafe { &mut *(g.as_mut_ptr().add(e) as *mut [T; F]) };
                     for k in 0..F {
                         gv[k] += w * d[k];
                     }
+                }
+                or += 1;
+                if or == layout.rows {
+                    or = 0;
+                    ob += 1;
                 }
             }
         }
@@ -606,6 +777,8 @@ impl<T: Real> HashGrid<T> {
         let parts = parts.max(1);
         scratch.resize_with(parts, Vec::new);
         let per = x.len().div_ceil(parts).div_ceil(block_rows) * block_rows;
+        let layout = BlockLayout::row_major(block_rows, stride);
+        self.check_blocks(x.len(), d_out_blocks, layout, col);
         let f = self.config.n_features;
         scratch.par_iter_mut().enumerate().for_each(|(i, buf)| {
             if buf.len() != self.params.len() {
@@ -625,10 +798,10 @@ impl<T: Real> HashGrid<T> {
                     continue;
                 }
                 match f {
-                    1 => self.backward_level::<1>(l, xs, blocks, block_rows, stride, col, head),
-                    2 => self.backward_level::<2>(l, xs, blocks, block_rows, stride, col, head),
-                    4 => self.backward_level::<4>(l, xs, blocks, block_rows, stride, col, head),
-                    _ => self.backward_level::<8>(l, xs, blocks, block_rows, stride, col, head),
+                    1 => self.backward_level::<1>(l, xs, blocks, layout, col, head),
+                    2 => self.backward_level::<2>(l, xs, blocks, layout, col, head),
+                    4 => self.backward_level::<4>(l, xs, blocks, layout, col, head),
+                    _ => self.backward_level::<8>(l, xs, blocks, layout, col, head),
                 }
             }
         });
@@ -654,14 +827,35 @@ impl<T: Real> HashGrid<T> {
         active_levels: usize,
         d_x: &mut [[T; 3]],
     ) {
+        let layout = BlockLayout::row_major(x.len().max(1), stride);
+        self.backward_input_block(x, d_out, layout, col, active_levels, d_x)
+    }
+
+    /// [`HashGrid::backward_input`] for upstream gradients in one block of rows
+    /// laid out as `layout` (`layout.rows ≥ x.len()`).
+    pub fn backward_input_block(
+        &self,
+        x: &[[T; 3]],
+        d_out: &[T],
+        layout: BlockLayout,
+        col: usize,
+        active_levels: usize,
+        d_x: &mut [[T; 3]],
+    ) {
         assert_eq!(x.len(), d_x.len());
+        assert!(layout.rows >= x.len(), "backward_input: one block of rows");
+        self.check_blocks(x.len(), &[d_out], layout, col);
+        let (rs, cs) = (layout.row_stride, layout.col_stride);
         let f = self.config.n_features;
         for (l, level) in self.levels.iter().enumerate().take(active_levels) {
             let table = &self.params[level.param_offset..level.param_offset + level.entries * f];
             let scale = T::from_u32(level.resolution);
             let c0 = col + l * f;
             for (p, &xp) in x.iter().enumerate() {
-                let d = &d_out[p * stride + c0..p * stride + c0 + f];
+                let mut d = [T::ZERO; 8];
+                for k in 0..f {
+                    d[k] = d_out[p * rs + (c0 + k) * cs];
+                }
                 let cell = locate(level, xp);
                 let [fx, fy, fz] = cell.frac;
                 let wx = [T::ONE - fx, fx];

@@ -6,13 +6,18 @@
 //! own parameter-gradient partial). The partials are summed in chunk order,
 //! so results do not depend on the number of threads.
 //!
+//! A chunk's input rows and their gradient are stored column-major (each
+//! input column contiguous, leading dimension [`MlpChunk::ld`]), so that an
+//! encoder filling one column group for many chunks writes and reads
+//! contiguous runs; the layer outputs are row-major.
+//!
 //! Parameter layout: layer after layer, the weight matrix `W` (`out × in`,
 //! row-major) followed by the bias (`out`). A layer computes
 //! `a = act(W · input + b)`.
 
 use crate::activation::Activation;
 use crate::error::FieldError;
-use crate::real::{Real, gemm};
+use crate::real::{Real, gemm_strided};
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -62,11 +67,14 @@ pub struct Mlp<T> {
 pub struct MlpChunk<T> {
     /// Rows in use.
     pub rows: usize,
-    /// Input rows (`rows × n_input`), filled by the caller before [`Mlp::forward_chunk`].
+    /// Leading dimension of `input` and `d_input`: input `j` of row `r` is at
+    /// `j · ld + r` (`ld ≥ rows`; [`CHUNK_ROWS`] for chunks of at most that many rows).
+    pub ld: usize,
+    /// Input values (column-major, see `ld`), filled by the caller before [`Mlp::forward_chunk`].
     pub input: Vec<T>,
     /// Output of each layer (`rows × width`), after its activation.
     pub acts: Vec<Vec<T>>,
-    /// Gradient w.r.t. the input rows, written by [`Mlp::backward_chunk`].
+    /// Gradient w.r.t. the inputs (column-major like `input`), written by [`Mlp::backward_chunk`].
     pub d_input: Vec<T>,
     /// This chunk's parameter-gradient partial, written by [`Mlp::backward_chunk`].
     pub grad: Vec<T>,
@@ -180,12 +188,13 @@ impl<T: Real> Mlp<T> {
     /// Sizes the buffers of `ch` for `rows` rows (no allocation when already large enough).
     pub fn prepare_chunk(&self, ch: &mut MlpChunk<T>, rows: usize) {
         ch.rows = rows;
-        ch.input.resize(rows * self.config.n_input, T::ZERO);
+        ch.ld = rows.max(CHUNK_ROWS);
+        ch.input.resize(ch.ld * self.config.n_input, T::ZERO);
         ch.acts.resize_with(self.layers.len(), Vec::new);
         for (a, l) in ch.acts.iter_mut().zip(&self.layers) {
             a.resize(rows * l.n_out, T::ZERO);
         }
-        ch.d_input.resize(rows * self.config.n_input, T::ZERO);
+        ch.d_input.resize(ch.ld * self.config.n_input, T::ZERO);
         ch.grad.resize(self.params.len(), T::ZERO);
     }
 
@@ -194,24 +203,30 @@ impl<T: Real> Mlp<T> {
         let rows = ch.rows;
         for (i, l) in self.layers.iter().enumerate() {
             let (before, after) = ch.acts.split_at_mut(i);
-            let input: &[T] = if i == 0 { &ch.input } else { &before[i - 1] };
+            // (row, column) strides of the layer input
+            let (input, s_in): (&[T], _) = if i == 0 {
+                (&ch.input, (1, ch.ld))
+            } else {
+                (&before[i - 1], (l.n_in, 1))
+            };
             let out = &mut after[0][..rows * l.n_out];
             let bias = &self.params[l.bias_offset..l.bias_offset + l.n_out];
             for row in out.chunks_exact_mut(l.n_out) {
                 row.copy_from_slice(bias);
             }
             let w = &self.params[l.weight_offset..l.bias_offset];
-            gemm(
+            gemm_strided(
                 rows,
                 l.n_in,
                 l.n_out,
                 T::ONE,
                 input,
-                false,
+                s_in,
                 w,
-                true,
+                (1, l.n_in),
                 T::ONE,
                 out,
+                (l.n_out, 1),
             );
             self.activation(i).forward_in_place(out);
         }
@@ -243,22 +258,27 @@ impl<T: Real> Mlp<T> {
         );
         for i in (0..n_layers).rev() {
             let l = self.layers[i];
-            let input: &[T] = if i == 0 { &ch.input } else { &ch.acts[i - 1] };
+            let (input, s_in): (&[T], _) = if i == 0 {
+                (&ch.input, (1, ch.ld))
+            } else {
+                (&ch.acts[i - 1], (l.n_in, 1))
+            };
             let delta = &sc.delta[..rows * l.n_out];
             // dW += deltaᵀ · input
             let (gw, gb) =
                 ch.grad[l.weight_offset..l.bias_offset + l.n_out].split_at_mut(l.n_in * l.n_out);
-            gemm(
+            gemm_strided(
                 l.n_out,
                 rows,
                 l.n_in,
                 T::ONE,
                 delta,
-                true,
+                (1, l.n_out),
                 input,
-                false,
+                s_in,
                 T::ONE,
                 gw,
+                (l.n_in, 1),
             );
             for row in delta.chunks_exact(l.n_out) {
                 for (g, &d) in gb.iter_mut().zip(row) {
@@ -267,22 +287,23 @@ impl<T: Real> Mlp<T> {
             }
             // d input = delta · W
             let w = &self.params[l.weight_offset..l.bias_offset];
-            let dst: &mut [T] = if i == 0 {
-                &mut ch.d_input[..rows * l.n_in]
+            let (dst, s_dst): (&mut [T], _) = if i == 0 {
+                (&mut ch.d_input[..], (1, ch.ld))
             } else {
-                &mut sc.delta_prev[..rows * l.n_in]
+                (&mut sc.delta_prev[..rows * l.n_in], (l.n_in, 1))
             };
-            gemm(
+            gemm_strided(
                 rows,
                 l.n_out,
                 l.n_in,
                 T::ONE,
                 delta,
-                false,
+                (l.n_out, 1),
                 w,
-                false,
+                (l.n_in, 1),
                 T::ZERO,
                 dst,
+                s_dst,
             );
             if i > 0 {
                 self.activation(i - 1).backward_in_place(
@@ -320,7 +341,12 @@ impl<T: Real> Mlp<T> {
             .zip(ctx.output.par_chunks_mut(CHUNK_ROWS * n_out))
             .for_each(|((ch, inp), out)| {
                 self.prepare_chunk(ch, inp.len() / n_in);
-                ch.input.copy_from_slice(inp);
+                let ld = ch.ld;
+                for (r, row) in inp.chunks_exact(n_in).enumerate() {
+                    for (j, &v) in row.iter().enumerate() {
+                        ch.input[j * ld + r] = v;
+                    }
+                }
                 self.forward_chunk(ch);
                 out.copy_from_slice(ch.output());
             });
@@ -349,7 +375,11 @@ impl<T: Real> Mlp<T> {
         if let Some(di) = d_input {
             assert_eq!(di.len(), ctx.n * n_in, "mlp backward: d_input length");
             for (dst, ch) in di.chunks_mut(CHUNK_ROWS * n_in).zip(&ctx.chunks) {
-                dst.copy_from_slice(&ch.d_input[..ch.rows * n_in]);
+                for (r, row) in dst.chunks_exact_mut(n_in).enumerate() {
+                    for (j, v) in row.iter_mut().enumerate() {
+                        *v = ch.d_input[j * ch.ld + r];
+                    }
+                }
             }
         }
     }

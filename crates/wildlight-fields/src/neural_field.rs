@@ -11,7 +11,7 @@
 
 use crate::activation::Activation;
 use crate::error::FieldError;
-use crate::hash_grid::{HashGrid, HashGridConfig};
+use crate::hash_grid::{BlockLayout, HashGrid, HashGridConfig};
 use crate::mlp::{CHUNK_ROWS, Mlp, MlpChunk, MlpConfig, MlpScratch};
 use crate::real::Real;
 use rayon::prelude::*;
@@ -161,6 +161,10 @@ impl<T: Real> NeuralField<T> {
     /// Batched forward pass: `x` (n points), `extra` (`n × n_extra`, row-major;
     /// empty when `n_extra = 0`). Results in `ctx.output()`. Parallel over
     /// fixed chunks of [`CHUNK_ROWS`] points.
+    ///
+    /// The encoding runs level-major over the whole batch (all points visit
+    /// level 0, then level 1, …), so that one level's table stays in the
+    /// cache while it is used; the MLP then runs chunk by chunk.
     pub fn forward(&self, x: &[[T; 3]], extra: &[T], ctx: &mut FieldContext<T>) {
         let n = x.len();
         let ne = self.config.n_extra;
@@ -169,41 +173,53 @@ impl<T: Real> NeuralField<T> {
         let b = T::from_f64(self.config.bound as f64);
         let inv = T::ONE / (b + b);
         ctx.unit.resize(n, [T::ZERO; 3]);
-        for (u, p) in ctx.unit.iter_mut().zip(x) {
-            *u = [(p[0] + b) * inv, (p[1] + b) * inv, (p[2] + b) * inv];
-        }
         ctx.chunks
             .resize_with(n.div_ceil(CHUNK_ROWS), MlpChunk::default);
         let n_out = self.config.n_output;
         ctx.output.resize(n * n_out, T::ZERO);
-        let n_in = self.mlp.config().n_input;
         let enc_col = self.encoding_column();
         let ex_col = self.extra_column();
         let pos = self.config.include_position;
-        let unit = &ctx.unit;
+        // Raw inputs (column-major chunk inputs) and encoder coordinates.
+        ctx.chunks
+            .par_iter_mut()
+            .zip(ctx.unit.par_chunks_mut(CHUNK_ROWS))
+            .enumerate()
+            .for_each(|(c, (ch, unit))| {
+                let start = c * CHUNK_ROWS;
+                let rows = unit.len();
+                self.mlp.prepare_chunk(ch, rows);
+                let ld = ch.ld;
+                for (r, (u, p)) in unit.iter_mut().zip(&x[start..start + rows]).enumerate() {
+                    *u = [(p[0] + b) * inv, (p[1] + b) * inv, (p[2] + b) * inv];
+                    if pos {
+                        for k in 0..3 {
+                            ch.input[k * ld + r] = p[k];
+                        }
+                    }
+                    for e in 0..ne {
+                        ch.input[(ex_col + e) * ld + r] = extra[(start + r) * ne + e];
+                    }
+                }
+            });
+        // Encoding, level-major over the whole batch.
+        let mut outs: Vec<&mut [T]> = ctx
+            .chunks
+            .iter_mut()
+            .map(|ch| ch.input.as_mut_slice())
+            .collect();
+        self.grid.encode_blocks(
+            &ctx.unit,
+            &mut outs,
+            BlockLayout::column_major(CHUNK_ROWS),
+            enc_col,
+            self.active_levels,
+        );
+        drop(outs);
         ctx.chunks
             .par_iter_mut()
             .zip(ctx.output.par_chunks_mut(CHUNK_ROWS * n_out))
-            .enumerate()
-            .for_each(|(c, (ch, out))| {
-                let start = c * CHUNK_ROWS;
-                let rows = out.len() / n_out;
-                self.mlp.prepare_chunk(ch, rows);
-                for r in 0..rows {
-                    let row = &mut ch.input[r * n_in..(r + 1) * n_in];
-                    if pos {
-                        row[..3].copy_from_slice(&x[start + r]);
-                    }
-                    row[ex_col..ex_col + ne]
-                        .copy_from_slice(&extra[(start + r) * ne..(start + r + 1) * ne]);
-                }
-                self.grid.encode(
-                    &unit[start..start + rows],
-                    &mut ch.input,
-                    n_in,
-                    enc_col,
-                    self.active_levels,
-                );
+            .for_each(|(ch, out)| {
                 self.mlp.forward_chunk(ch);
                 out.copy_from_slice(ch.output());
             });
@@ -230,14 +246,13 @@ impl<T: Real> NeuralField<T> {
                 self.mlp.backward_chunk(ch, d, sc)
             });
         Mlp::reduce_chunk_grads(&ctx.chunks, &mut grads.mlp);
-        let n_in = self.mlp.config().n_input;
         let enc_col = self.encoding_column();
         let blocks: Vec<&[T]> = ctx.chunks.iter().map(|c| c.d_input.as_slice()).collect();
-        self.grid.backward_params(
+        let layout = BlockLayout::column_major(CHUNK_ROWS);
+        self.grid.backward_params_blocks(
             &ctx.unit,
             &blocks,
-            CHUNK_ROWS,
-            n_in,
+            layout,
             enc_col,
             self.active_levels,
             &mut grads.grid,
@@ -253,7 +268,9 @@ impl<T: Real> NeuralField<T> {
             {
                 let ch = &ctx.chunks[p / CHUNK_ROWS];
                 let r = p % CHUNK_ROWS;
-                row.copy_from_slice(&ch.d_input[r * n_in + ex_col..r * n_in + ex_col + ne]);
+                for (e, v) in row.iter_mut().enumerate() {
+                    *v = ch.d_input[(ex_col + e) * ch.ld + r];
+                }
             }
         }
         if let Some(dx) = d_x {
@@ -269,10 +286,10 @@ impl<T: Real> NeuralField<T> {
                 .for_each(|(c, (ch, dxc))| {
                     let start = c * CHUNK_ROWS;
                     dxc.fill([T::ZERO; 3]);
-                    self.grid.backward_input(
+                    self.grid.backward_input_block(
                         &unit[start..start + dxc.len()],
                         &ch.d_input,
-                        n_in,
+                        layout,
                         enc_col,
                         self.active_levels,
                         dxc,
@@ -281,7 +298,7 @@ impl<T: Real> NeuralField<T> {
                         for k in 0..3 {
                             g[k] *= inv;
                             if pos {
-                                g[k] += ch.d_input[r * n_in + k];
+                                g[k] += ch.d_input[k * ch.ld + r];
                             }
                         }
                     }

@@ -268,22 +268,50 @@ pub fn gemm<T: Real>(
     beta: T,
     c: &mut [T],
 ) {
-    assert!(a.len() >= m * k, "gemm: A too small");
-    assert!(b.len() >= k * n, "gemm: B too small");
-    assert!(c.len() >= m * n, "gemm: C too small");
+    let sa = if a_transposed { (1, m) } else { (k, 1) };
+    let sb = if b_transposed { (1, k) } else { (n, 1) };
+    gemm_strided(m, k, n, alpha, a, sa, b, sb, beta, c, (n, 1));
+}
+
+/// Largest offset touched by a `rows × cols` matrix with strides `s` (row, column), plus one.
+fn extent((rows, cols): (usize, usize), s: (usize, usize)) -> usize {
+    if rows == 0 || cols == 0 {
+        0
+    } else {
+        (rows - 1) * s.0 + (cols - 1) * s.1 + 1
+    }
+}
+
+/// Safe wrapper of [`Real::gemm_raw`] with explicit (row, column) strides of
+/// `A` (`m×k`), `B` (`k×n`) and `C` (`m×n`): `C = alpha·A·B + beta·C`.
+#[allow(clippy::too_many_arguments)]
+pub fn gemm_strided<T: Real>(
+    m: usize,
+    k: usize,
+    n: usize,
+    alpha: T,
+    a: &[T],
+    (rsa, csa): (usize, usize),
+    b: &[T],
+    (rsb, csb): (usize, usize),
+    beta: T,
+    c: &mut [T],
+    (rsc, csc): (usize, usize),
+) {
+    assert!(a.len() >= extent((m, k), (rsa, csa)), "gemm: A too small");
+    assert!(b.len() >= extent((k, n), (rsb, csb)), "gemm: B too small");
+    assert!(c.len() >= extent((m, n), (rsc, csc)), "gemm: C too small");
     if m == 0 || n == 0 {
         return;
     }
-    let (rsa, csa) = if a_transposed {
-        (1, m as isize)
-    } else {
-        (k as isize, 1)
-    };
-    let (rsb, csb) = if b_transposed {
-        (1, k as isize)
-    } else {
-        (n as isize, 1)
-    };
+    let (rsa, csa, rsb, csb, rsc, csc) = (
+        rsa as isize,
+        csa as isize,
+        rsb as isize,
+        csb as isize,
+        rsc as isize,
+        csc as isize,
+    );
     // matrixmultiply's "threading" feature splits calls with m·k + k·n ≥ 2^15
     // over its own threads; our callers are already parallel, so the product
     // is cut into pieces below that size (the cut depends only on the shapes,
@@ -313,9 +341,9 @@ pub fn gemm<T: Real>(
                     rsb,
                     csb,
                     beta_here,
-                    c.as_mut_ptr().add(m0 * n),
-                    n as isize,
-                    1,
+                    c.as_mut_ptr().offset(m0 as isize * rsc),
+                    rsc,
+                    csc,
                 )
             }
             m0 += mm;
