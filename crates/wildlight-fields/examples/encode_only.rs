@@ -1,4 +1,4 @@
-//! Profiling helper: encodes ray samples repeatedly (`ENC_REPS`, `BENCH_LOG2T`;
+//! Profiling helper: encodes ray samples repeatedly, level-major over the batch (`ENC_REPS`, `BENCH_LOG2T`;
 //! `SORT=1` sorts the points in Morton order first).
 
 use wildlight_fields::{HashGrid, HashGridConfig};
@@ -35,12 +35,16 @@ fn main() {
         x.sort_by_key(key);
     }
     let no = grid.n_outputs();
-    let mut out = vec![0.0f32; n * no];
+    let rows = wildlight_fields::CHUNK_ROWS;
+    let layout = wildlight_fields::hash_grid::BlockLayout::column_major(rows);
+    let mut blocks: Vec<Vec<f32>> = (0..n.div_ceil(rows))
+        .map(|_| vec![0.0; rows * no])
+        .collect();
     let t = std::time::Instant::now();
     for _ in 0..env("ENC_REPS", 5) {
-        for (o, xs) in out.chunks_mut(1024 * no).zip(x.chunks(1024)) {
-            grid.encode(xs, o, no, 0, 16);
-        }
+        let mut outs: Vec<&mut [f32]> = blocks.iter_mut().map(|b| b.as_mut_slice()).collect();
+        grid.encode_blocks(&x, &mut outs, layout, 0, 16);
     }
-    println!("{:?} checksum {}", t.elapsed(), out.iter().sum::<f32>());
+    let sum: f32 = blocks.iter().flatten().sum();
+    println!("{:?} checksum {}", t.elapsed(), sum);
 }

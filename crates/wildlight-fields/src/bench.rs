@@ -73,6 +73,10 @@ pub struct BenchReport {
     pub encoding_bwd_per_thread_buffers_s: f64,
     /// MLP backward alone, seconds per batch.
     pub mlp_bwd_s: f64,
+    /// Process CPU seconds per batch (all threads) of the encoding forward,
+    /// MLP forward, encoding backward and MLP backward: less sensitive to
+    /// other processes than the wall times above.
+    pub component_cpu_s: [f64; 4],
     /// Share of encoding time in (encoding + MLP), forward + backward.
     pub encoding_share: f64,
     /// Share of MLP time in (encoding + MLP), forward + backward.
@@ -215,7 +219,7 @@ pub fn run(config: &BenchConfig) -> Result<BenchReport, crate::FieldError> {
         .collect();
     let layout = BlockLayout::column_major(CHUNK_ROWS);
     let levels = grid.config().n_levels;
-    let (t_enc_fwd, _) = time(config.reps, || {
+    let (t_enc_fwd, t_enc_fwd_cpu) = time(config.reps, || {
         let mut outs: Vec<&mut [f32]> = chunks.iter_mut().map(|c| c.input.as_mut_slice()).collect();
         grid.encode_blocks(&unit, &mut outs, layout, enc_col, levels);
     });
@@ -230,7 +234,7 @@ pub fn run(config: &BenchConfig) -> Result<BenchReport, crate::FieldError> {
         .collect();
     let blocks: Vec<&[f32]> = d_enc.iter().map(|v| v.as_slice()).collect();
     let mut g_grid = crate::memory::huge_vec::<f32>(grid.n_params());
-    let (t_enc_bwd, _) = time(config.reps, || {
+    let (t_enc_bwd, t_enc_bwd_cpu) = time(config.reps, || {
         g_grid.fill(0.0);
         grid.backward_params_blocks(&unit, &blocks, layout, enc_col, levels, &mut g_grid);
     });
@@ -253,12 +257,12 @@ pub fn run(config: &BenchConfig) -> Result<BenchReport, crate::FieldError> {
         );
     });
     drop(scratch);
-    let (t_mlp_fwd, _) = time(config.reps, || {
+    let (t_mlp_fwd, t_mlp_fwd_cpu) = time(config.reps, || {
         chunks.par_iter_mut().for_each(|ch| mlp.forward_chunk(ch));
     });
     let mut g_mlp = vec![0.0f32; mlp.n_params()];
     let n_out = mlp.config().n_output;
-    let (t_mlp_bwd, _) = time(config.reps, || {
+    let (t_mlp_bwd, t_mlp_bwd_cpu) = time(config.reps, || {
         chunks
             .par_iter_mut()
             .zip(d_out.par_chunks(CHUNK_ROWS * n_out))
@@ -283,6 +287,7 @@ pub fn run(config: &BenchConfig) -> Result<BenchReport, crate::FieldError> {
         encoding_bwd_s: t_enc_bwd,
         encoding_bwd_per_thread_buffers_s: t_enc_bwd_bufs,
         mlp_bwd_s: t_mlp_bwd,
+        component_cpu_s: [t_enc_fwd_cpu, t_mlp_fwd_cpu, t_enc_bwd_cpu, t_mlp_bwd_cpu],
         encoding_share: enc_t / (enc_t + mlp_t),
         mlp_share: mlp_t / (enc_t + mlp_t),
     })

@@ -175,6 +175,50 @@ fn locate<T: Real>(level: &LevelInfo, x: [T; 3]) -> Cell<T> {
     }
 }
 
+/// Prefetches the values of columns `c0 .. c0 + f` of rows `p .. p + count`
+/// of blocks laid out as `layout` (one hint per cache line of a column-major
+/// run; every row for other layouts).
+#[inline(always)]
+fn prefetch_rows<T, B: AsRef<[T]>>(
+    blocks: &[B],
+    layout: BlockLayout,
+    p: usize,
+    count: usize,
+    c0: usize,
+    f: usize,
+) {
+    let per_line = 64 / std::mem::size_of::<T>().max(1);
+    let step = if layout.row_stride == 1 { per_line } else { 1 };
+    let mut q = p;
+    while q < p + count {
+        let (b, r) = (q / layout.rows, q % layout.rows);
+        if let Some(blk) = blocks.get(b) {
+            for k in 0..f {
+                prefetch(
+                    blk.as_ref()
+                        .as_ptr()
+                        .wrapping_add(r * layout.row_stride + (c0 + k) * layout.col_stride),
+                );
+            }
+        }
+        q += step;
+    }
+    // The run's last row may start a new line.
+    if count > 0 && layout.row_stride == 1 {
+        let q = p + count - 1;
+        let (b, r) = (q / layout.rows, q % layout.rows);
+        if let Some(blk) = blocks.get(b) {
+            for k in 0..f {
+                prefetch(
+                    blk.as_ref()
+                        .as_ptr()
+                        .wrapping_add(r + (c0 + k) * layout.col_stride),
+                );
+            }
+        }
+    }
+}
+
 /// Cells of a block of up to [`BLOCK`] points in struct-of-arrays form, so that
 /// the arithmetic vectorises across points: `index[c][i]` and `weight[c][i]`
 /// are corner `c` of point `i`.
@@ -208,23 +252,29 @@ impl<T: Real> BlockCells<T> {
         let mut w1 = [[T::ZERO; BLOCK]; 3];
         for d in 0..3 {
             for i in 0..BLOCK {
+                // `max` maps NaN to 0, so xc ∈ [0, 1].
                 let xc = soa[d][i].max(T::ZERO).min(T::ONE);
                 let pos = xc * scale;
                 // pos ≥ 0, so truncation is the floor.
-                let fl = pos.to_u32().min(top);
+                // SAFETY: pos ∈ [0, 2^20] (resolutions are at most 2^20).
+                let fl = unsafe { pos.to_u32_unchecked() }.min(top);
                 let fr = pos - T::from_u32(fl);
                 i0[d][i] = fl;
                 w1[d][i] = fr;
                 w0[d][i] = T::ONE - fr;
             }
         }
-        for c in 0..8 {
-            let (a, b, e) = (c & 1, (c >> 1) & 1, (c >> 2) & 1);
-            for i in 0..BLOCK {
-                let wx = if a == 1 { w1[0][i] } else { w0[0][i] };
-                let wy = if b == 1 { w1[1][i] } else { w0[1][i] };
-                let wz = if e == 1 { w1[2][i] } else { w0[2][i] };
-                self.weight[c][i] = wx * wy * wz;
+        // weight of corner (a, b, e) = (wx · wy) · wz, in that order.
+        for i in 0..BLOCK {
+            let wxy = [
+                w0[0][i] * w0[1][i],
+                w1[0][i] * w0[1][i],
+                w0[0][i] * w1[1][i],
+                w1[0][i] * w1[1][i],
+            ];
+            for c in 0..8 {
+                let wz = if c >> 2 == 1 { w1[2][i] } else { w0[2][i] };
+                self.weight[c][i] = wxy[c & 3] * wz;
             }
         }
         if level.dense {
@@ -542,6 +592,14 @@ impl<T: Real> HashGrid<T> {
                 if !level.dense {
                     next.prefetch(table.as_ptr(), F, block(b + 1).len());
                 }
+                prefetch_rows(
+                    out_blocks,
+                    layout,
+                    (b + 1) * BLOCK,
+                    block(b + 1).len(),
+                    c0,
+                    F,
+                );
             }
             for i in 0..block(b).len() {
                 let mut acc = [T::ZERO; F];
@@ -724,6 +782,14 @@ impl<T: Real> HashGrid<T> {
                 if !level.dense {
                     next.prefetch(g.as_ptr(), F, pts(b + 1).len());
                 }
+                prefetch_rows(
+                    d_out_blocks,
+                    layout,
+                    (b + 1) * BLOCK,
+                    pts(b + 1).len(),
+                    c0,
+                    F,
+                );
             }
             for i in 0..pts(b).len() {
                 let blk = d_out_blocks[ob];

@@ -57,6 +57,12 @@ pub trait Real:
     }
     /// Truncation to an index (the value must be in `[0, 2^31)`).
     fn to_u32(self) -> u32;
+    /// Truncation to an index without range checks, so that loops over it
+    /// vectorise.
+    ///
+    /// # Safety
+    /// The value must be finite and in `[0, 2^31)`.
+    unsafe fn to_u32_unchecked(self) -> u32;
     /// Conversion from an integer below 2^31.
     fn from_u32(v: u32) -> Self;
     /// Row-major general matrix product `C = alpha·A·B + beta·C` with explicit
@@ -117,6 +123,11 @@ impl Real for f64 {
     #[inline(always)]
     fn to_u32(self) -> u32 {
         self as i32 as u32
+    }
+    #[inline(always)]
+    unsafe fn to_u32_unchecked(self) -> u32 {
+        // SAFETY: forwarded contract of the caller.
+        unsafe { self.to_int_unchecked::<i32>() as u32 }
     }
     #[inline(always)]
     fn from_u32(v: u32) -> Self {
@@ -183,6 +194,11 @@ impl Real for f32 {
     fn to_u32(self) -> u32 {
         // Signed conversions vectorise (cvttps2dq); values are in [0, 2^31).
         self as i32 as u32
+    }
+    #[inline(always)]
+    unsafe fn to_u32_unchecked(self) -> u32 {
+        // SAFETY: forwarded contract of the caller.
+        unsafe { self.to_int_unchecked::<i32>() as u32 }
     }
     #[inline(always)]
     fn from_u32(v: u32) -> Self {
