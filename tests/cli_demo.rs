@@ -4,14 +4,14 @@
 
 use std::process::Command;
 
-fn demo(dir: &std::path::Path, budget: &str) -> serde_json::Value {
+fn demo(dir: &std::path::Path, iters: &str) -> serde_json::Value {
     let out = Command::new(env!("CARGO_BIN_EXE_wildlight"))
         .args([
             "demo",
             "--quick",
             "--json",
-            "--time-budget",
-            budget,
+            "--iters",
+            iters,
             "--out",
         ])
         .arg(dir)
@@ -70,7 +70,23 @@ fn quick_demo_beats_an_untrained_model() {
         "render-val/views.json",
         "run/checkpoint.safetensors",
         "demo.json",
+        "preview.png",
     ] {
         assert!(t.join(p).exists(), "{p} is missing");
     }
+    // The preview grid (README, "wildlight demo"): a 96 px label column and
+    // an 18 px header, then 2 val views × (GT, OURS) columns and 4 rows
+    // (flash, no flash, base colour, normals) of 96×96 tiles, each followed
+    // by a 4 px gap.
+    let dims = image::image_dimensions(t.join("preview.png")).expect("preview.png is a PNG");
+    assert_eq!(dims, (96 + 4 * (96 + 4), 18 + 4 * (96 + 4)));
+    let preview = image::open(t.join("preview.png")).unwrap().to_rgb8();
+    // the OURS flash tile of the first (flash) view shows the object: not
+    // only backdrop grey
+    let (x0, y0) = (96 + 100, 18);
+    let object_pixels = (0..96)
+        .flat_map(|y| (0..96).map(move |x| (x0 + x, y0 + y)))
+        .filter(|&(x, y)| preview.get_pixel(x, y).0 != [64, 64, 64])
+        .count();
+    assert!(object_pixels > 500, "{object_pixels} object pixels");
 }

@@ -1,6 +1,7 @@
 //! `wildlight demo`: the whole job on the built-in default scene, with no
 //! data needed: synthesize a capture, train, render the held-out views,
-//! export the asset, and measure everything against the ground truth.
+//! export the asset, measure everything against the ground truth, and draw
+//! a side-by-side preview (`preview.png`) of ground truth and reconstruction.
 
 use anyhow::{Context, bail};
 use std::path::{Path, PathBuf};
@@ -12,7 +13,7 @@ use wildlight_eval::{
 use wildlight_export::{AtlasOptions, ExportOptions, MarchingOptions, export_to_dir};
 use wildlight_synth::{RigOptions, SynthOptions, synthesize};
 use wildlight_train::TrainConfig;
-use wildlight_train::inference::{ExportSource, TrainedRun, render_views_to_dir};
+use wildlight_train::inference::{ExportSource, RenderedView, TrainedRun, render_views_to_dir};
 use wildlight_train::run::{RunOptions, train};
 
 /// Options of `wildlight demo`.
@@ -66,6 +67,11 @@ fn prepare_out(out: &Path) -> anyhow::Result<()> {
                 "{} exists and does not hold an earlier demo; choose another --out",
                 out.display()
             );
+        }
+        let preview = out.join("preview.png");
+        if preview.exists() {
+            std::fs::remove_file(&preview)
+                .with_context(|| format!("cannot remove {}", preview.display()))?;
         }
         for sub in ["capture", "run", "render-val", "export"] {
             let p = out.join(sub);
@@ -147,7 +153,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let val_cameras = wildlight_data::Dataset::load_cameras(&capture.join("val"))?;
     let refs: Vec<&wildlight_data::Camera> = val_cameras.iter().collect();
     let render_dir = out.join("render-val");
-    render_views_to_dir(
+    let rendered = render_views_to_dir(
         &mut trained,
         &refs,
         |c| c.light_energy.map(|e| e as f32),
@@ -193,6 +199,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         novel_view_psnr_noflash: images.psnr_noflash,
         seconds: start.elapsed().as_secs_f64(),
     };
+    let preview_path = out.join("preview.png");
+    write_preview(&capture.join("val"), &render_dir, &rendered, &preview_path)?;
     let opt = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.2} dB"));
     println!(
         "wildlight demo ({})",
@@ -227,11 +235,264 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     println!("  renderings    {}", render_dir.display());
     println!("  glTF          {}", files.glb.display());
     println!("  OBJ           {}", files.obj.display());
+    println!("  preview       {}", preview_path.display());
+    println!("  metrics       {}", out.join("demo.json").display());
     let json = serde_json::to_string(&metrics)?;
-    std::fs::write(out.join("demo.json"), &json)
+    wildlight_data::atomic::write_bytes_atomically(&out.join("demo.json"), json.as_bytes())
         .with_context(|| format!("cannot write {}", out.join("demo.json").display()))?;
     if args.json {
         println!("{json}");
     }
     Ok(())
+}
+
+/// The row labels of the preview, top to bottom.
+pub const PREVIEW_ROWS: [&str; 4] = ["FLASH", "NO FLASH", "BASE COLOUR", "NORMALS"];
+
+/// The most held-out views the preview shows (two columns each).
+pub const PREVIEW_VIEWS: usize = 2;
+
+/// Display value (8-bit) of pixels outside the object: a mid-dark grey.
+const BACKDROP: f32 = 64.0 / 255.0;
+
+/// Linear HDR value to an 8-bit display value: multiply by `exposure`,
+/// clip to [0, 1], encode with the sRGB curve.
+pub fn tone_map(v: f32, exposure: f32) -> f32 {
+    wildlight_data::png_io::linear_to_srgb((v * exposure).clamp(0.0, 1.0))
+}
+
+/// One preview tile: `value(pixel)` gives the display colour in [0, 1]
+/// of a covered pixel and `coverage(pixel)` in [0, 1] how much of the pixel
+/// the object covers; the rest shows the backdrop.
+fn tile(
+    width: u32,
+    height: u32,
+    value: impl Fn(usize) -> [f32; 3],
+    coverage: impl Fn(usize) -> f32,
+) -> image::RgbImage {
+    image::RgbImage::from_fn(width, height, |x, y| {
+        let i = (y * width + x) as usize;
+        let a = coverage(i).clamp(0.0, 1.0);
+        let v = if a > 0.0 { value(i) } else { [0.0; 3] };
+        image::Rgb(v.map(|c| ((a * c + (1.0 - a) * BACKDROP) * 255.0).round() as u8))
+    })
+}
+
+/// The exposure that maps the 99th percentile of `values` to 1 (1 when
+/// there is nothing bright to measure).
+fn exposure_for(mut values: Vec<f32>) -> f32 {
+    values.retain(|v| v.is_finite() && *v > 0.0);
+    if values.is_empty() {
+        return 1.0;
+    }
+    let k = ((values.len() - 1) as f64 * 0.99).round() as usize;
+    let (_, p99, _) = values.select_nth_unstable_by(k, f32::total_cmp);
+    1.0 / *p99
+}
+
+/// The maps of one held-out view that the preview shows.
+struct PreviewView {
+    index: usize,
+    flash: bool,
+    mask: wildlight_data::Mask,
+    gt_photo: wildlight_data::RgbImage,
+    gt_ambient: wildlight_data::RgbImage,
+    gt_base: wildlight_data::RgbImage,
+    gt_normal: wildlight_data::RgbImage,
+    photo: wildlight_data::RgbImage,
+    ambient: wildlight_data::RgbImage,
+    base: wildlight_data::RgbImage,
+    normal: wildlight_data::RgbImage,
+    acc: wildlight_data::RgbImage,
+}
+
+impl PreviewView {
+    fn load(val: &Path, render_dir: &Path, index: usize, flash: bool) -> anyhow::Result<Self> {
+        use wildlight_data::exr_io::read_exr_rgb;
+        let name = wildlight_data::writer::indexed_file_name(index, "exr");
+        let gt = |kind: &str| read_exr_rgb(&val.join("gt").join(kind).join(&name));
+        let ours = |kind: &str| read_exr_rgb(&render_dir.join(kind).join(&name));
+        let mask_name = wildlight_data::writer::indexed_file_name(index, "png");
+        Ok(PreviewView {
+            index,
+            flash,
+            mask: wildlight_data::png_io::read_mask_png(&val.join("mask").join(mask_name))?,
+            gt_photo: read_exr_rgb(&val.join("image").join(&name))?,
+            gt_ambient: gt("ambient")?,
+            gt_base: gt("base_color")?,
+            gt_normal: gt("normal")?,
+            photo: ours("image")?,
+            ambient: ours("ambient")?,
+            base: ours("base_color")?,
+            normal: ours("normal")?,
+            acc: ours("acc")?,
+        })
+    }
+
+    fn size_matches(&self, w: u32, h: u32) -> bool {
+        [
+            &self.gt_photo,
+            &self.gt_ambient,
+            &self.gt_base,
+            &self.gt_normal,
+            &self.photo,
+            &self.ambient,
+            &self.base,
+            &self.normal,
+            &self.acc,
+        ]
+        .iter()
+        .all(|m| (m.width, m.height) == (w, h))
+            && (self.mask.width, self.mask.height) == (w, h)
+    }
+}
+
+fn rgb(img: &wildlight_data::RgbImage, i: usize) -> [f32; 3] {
+    [img.data[3 * i], img.data[3 * i + 1], img.data[3 * i + 2]]
+}
+
+/// Draws the preview grid of ground truth against reconstruction for up to
+/// [`PREVIEW_VIEWS`] held-out views (flash views first) and writes it to
+/// `path` atomically. Columns: GT and OURS of each view; rows:
+/// [`PREVIEW_ROWS`]. Radiance rows share one exposure per row (the GT's
+/// 99th-percentile object value maps to 1), then clip and sRGB; base colour
+/// is clipped and sRGB-encoded as is (no scale alignment); normals show
+/// 0.5 + 0.5·n. Pixels outside the GT mask (GT) or weighted by 1 − the
+/// accumulated weight (OURS) show a grey backdrop. A no-flash view has no
+/// flash photo: its FLASH tiles are left empty.
+pub fn write_preview(
+    val: &Path,
+    render_dir: &Path,
+    rendered: &[RenderedView],
+    path: &Path,
+) -> anyhow::Result<()> {
+    let mut order: Vec<&RenderedView> = rendered.iter().collect();
+    order.sort_by_key(|v| (!v.flash, v.index));
+    let mut views = Vec::new();
+    for v in order.into_iter().take(PREVIEW_VIEWS) {
+        views.push(
+            PreviewView::load(val, render_dir, v.index, v.flash)
+                .with_context(|| format!("loading the maps of val view {}", v.index))?,
+        );
+    }
+    let Some(first) = views.first() else {
+        bail!("no held-out view to preview");
+    };
+    let (w, h) = (first.gt_photo.width, first.gt_photo.height);
+    views.retain(|v| v.size_matches(w, h));
+    let n = (w * h) as usize;
+    let object = |v: &PreviewView, img: &wildlight_data::RgbImage| -> Vec<f32> {
+        (0..n)
+            .filter(|&i| v.mask.data[i])
+            .flat_map(|i| rgb(img, i))
+            .collect()
+    };
+    let flash_exposure = exposure_for(
+        views
+            .iter()
+            .filter(|v| v.flash)
+            .flat_map(|v| object(v, &v.gt_photo))
+            .collect(),
+    );
+    let ambient_exposure = exposure_for(
+        views
+            .iter()
+            .flat_map(|v| object(v, &v.gt_ambient))
+            .collect(),
+    );
+    let gt_cov = |v: &PreviewView| {
+        let mask = v.mask.data.clone();
+        move |i: usize| if mask[i] { 1.0 } else { 0.0 }
+    };
+    let our_cov = |v: &PreviewView| {
+        let acc = v.acc.data.clone();
+        move |i: usize| acc[3 * i]
+    };
+    // Rendered radiance is premultiplied by the accumulated weight: divide
+    // it out before tone mapping, then blend with the backdrop by coverage.
+    let radiance = |img: &wildlight_data::RgbImage, acc: Option<&wildlight_data::RgbImage>, e| {
+        let img = img.clone();
+        let acc = acc.cloned();
+        move |i: usize| {
+            let a = acc.as_ref().map_or(1.0, |a| a.data[3 * i].max(1e-3));
+            rgb(&img, i).map(|c| tone_map(c / a, e))
+        }
+    };
+    let base = |img: &wildlight_data::RgbImage| {
+        let img = img.clone();
+        move |i: usize| rgb(&img, i).map(|c| tone_map(c, 1.0))
+    };
+    let normal = |img: &wildlight_data::RgbImage| {
+        let img = img.clone();
+        move |i: usize| rgb(&img, i).map(|c| (0.5 + 0.5 * c).clamp(0.0, 1.0))
+    };
+    let mut rows: Vec<Vec<Option<image::RgbImage>>> = vec![Vec::new(); PREVIEW_ROWS.len()];
+    let mut column_labels = Vec::new();
+    for v in &views {
+        column_labels.push(format!("GT {:03}", v.index));
+        column_labels.push(format!("OURS {:03}", v.index));
+        if v.flash {
+            rows[0].push(Some(tile(
+                w,
+                h,
+                radiance(&v.gt_photo, None, flash_exposure),
+                gt_cov(v),
+            )));
+            rows[0].push(Some(tile(
+                w,
+                h,
+                radiance(&v.photo, Some(&v.acc), flash_exposure),
+                our_cov(v),
+            )));
+        } else {
+            rows[0].extend([None, None]);
+        }
+        rows[1].push(Some(tile(
+            w,
+            h,
+            radiance(&v.gt_ambient, None, ambient_exposure),
+            gt_cov(v),
+        )));
+        rows[1].push(Some(tile(
+            w,
+            h,
+            radiance(&v.ambient, Some(&v.acc), ambient_exposure),
+            our_cov(v),
+        )));
+        rows[2].push(Some(tile(w, h, base(&v.gt_base), gt_cov(v))));
+        rows[2].push(Some(tile(w, h, base(&v.base), our_cov(v))));
+        rows[3].push(Some(tile(w, h, normal(&v.gt_normal), gt_cov(v))));
+        rows[3].push(Some(tile(w, h, normal(&v.normal), our_cov(v))));
+    }
+    crate::plot::ImageGrid {
+        tile_width: w,
+        tile_height: h,
+        column_labels,
+        row_labels: PREVIEW_ROWS.iter().map(|s| s.to_string()).collect(),
+        tiles: rows,
+    }
+    .write_png(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tone_map_exposes_clips_and_encodes_srgb() {
+        assert_eq!(tone_map(0.0, 3.0), 0.0);
+        assert_eq!(tone_map(-1.0, 1.0), 0.0);
+        assert!((tone_map(2.0, 1.0) - 1.0).abs() < 1e-6);
+        assert_eq!(tone_map(2.0, 1.0), tone_map(1.0, 1.0));
+        // 0.1 · 2 = 0.2 linear is 0.4845 in sRGB (IEC 61966-2-1)
+        assert!((tone_map(0.1, 2.0) - 0.48453).abs() < 1e-4);
+    }
+
+    #[test]
+    fn exposure_maps_the_99th_percentile_to_one() {
+        let values: Vec<f32> = (1..=1000).map(|i| i as f32 / 100.0).collect();
+        // the 99th percentile of 0.01..10 is 9.90 (index 989 of 0..999)
+        assert!((exposure_for(values) - 1.0 / 9.9).abs() < 1e-6);
+        assert_eq!(exposure_for(vec![0.0, f32::NAN]), 1.0);
+    }
 }
