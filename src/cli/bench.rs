@@ -12,14 +12,20 @@ pub struct Args {
 enum Which {
     /// Hash-grid SDF field: forward and forward+backward throughput.
     Fields(bench_fields::Args),
+    /// Asset export: wall time, peak memory and (--roundtrip) the round trip.
+    Export(bench_export::Args),
 }
 
 /// Runs the chosen benchmark.
 pub fn run(args: Args) -> anyhow::Result<()> {
     match args.which {
         Which::Fields(a) => bench_fields::run(a),
+        Which::Export(a) => bench_export::run(a),
     }
 }
 
 #[path = "bench_fields.rs"]
 mod bench_fields;
+
+#[path = "bench_export.rs"]
+mod bench_export;

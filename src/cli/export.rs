@@ -32,43 +32,76 @@ pub struct Args {
     pub quiet: bool,
 }
 
-/// Runs `wildlight export`.
-pub fn run(args: Args) -> anyhow::Result<()> {
-    if !(16..=2048).contains(&args.resolution) {
-        bail!("--resolution {} is outside 16..=2048", args.resolution);
+/// The export settings of `args` for a capture whose normalized frame maps
+/// to the world by `scale_mat`, after checking the ranges.
+pub fn export_options(
+    resolution: u32,
+    faces: usize,
+    texture: u32,
+    scale_mat: glam::Mat4,
+    world_units: bool,
+    progress: bool,
+) -> anyhow::Result<ExportOptions> {
+    if !(16..=2048).contains(&resolution) {
+        bail!("--resolution {resolution} is outside 16..=2048");
     }
-    if !(64..=16384).contains(&args.texture) {
-        bail!("--texture {} is outside 64..=16384", args.texture);
+    if !(64..=16384).contains(&texture) {
+        bail!("--texture {texture} is outside 64..=16384");
     }
-    if args.faces < 4 {
-        bail!("--faces {} is too small", args.faces);
+    if faces < 4 {
+        bail!("--faces {faces} is too small");
     }
-    let trained = TrainedRun::load(&args.run)?;
+    Ok(ExportOptions {
+        marching: MarchingOptions {
+            resolution: resolution,
+            ..MarchingOptions::default()
+        },
+        max_faces: faces,
+        atlas: AtlasOptions {
+            texture_size: texture,
+            ..AtlasOptions::default()
+        },
+        scale_mat,
+        world_units,
+        progress,
+        ..ExportOptions::default()
+    })
+}
+
+/// The normalized → world map of a trained run's capture (its first camera's scale_mat).
+pub fn run_scale_mat(trained: &TrainedRun) -> anyhow::Result<glam::Mat4> {
     let cameras = wildlight_data::Dataset::load_cameras(&trained.info.data).with_context(|| {
         format!(
             "cannot read the cameras of the run's capture {} (needed for scale_mat)",
             trained.info.data.display()
         )
     })?;
-    let scale_mat = cameras
+    cameras
         .first()
         .map(|c| c.scale_mat.as_mat4())
-        .context("the run's capture has no cameras")?;
-    let options = ExportOptions {
-        marching: MarchingOptions {
-            resolution: args.resolution,
-            ..MarchingOptions::default()
-        },
-        max_faces: args.faces,
-        atlas: AtlasOptions {
-            texture_size: args.texture,
-            ..AtlasOptions::default()
-        },
-        scale_mat,
-        world_units: !args.normalized,
-        progress: !args.quiet && std::io::IsTerminal::is_terminal(&std::io::stderr()),
-        ..ExportOptions::default()
-    };
+        .context("the run's capture has no cameras")
+}
+
+/// Runs `wildlight export`.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    // Check the options before the (slow) loading of the run.
+    export_options(
+        args.resolution,
+        args.faces,
+        args.texture,
+        glam::Mat4::IDENTITY,
+        true,
+        false,
+    )?;
+    let trained = TrainedRun::load(&args.run)?;
+    let options = export_options(
+        args.resolution,
+        args.faces,
+        args.texture,
+        run_scale_mat(&trained)?,
+        !args.normalized,
+        !args.quiet && std::io::IsTerminal::is_terminal(&std::io::stderr()),
+    )?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let source = ExportSource::new(&trained);

@@ -1,6 +1,8 @@
 //! Asset export (SPEC §9): from an SDF and a material field to a textured
 //! PBR asset — glTF 2.0 binary and OBJ + MTL + PNG — plus reading an
-//! exported `.glb` back and ray tracing its flash term (SPEC §2).
+//! exported `.glb` back, rendering it under its capture's flash and an
+//! environment light, and measuring the round trip (flash term and
+//! eq. 16 reference surface).
 //!
 //! ```no_run
 //! use wildlight_export::{AnalyticSource, ExportOptions, export_to_dir};
@@ -22,6 +24,7 @@ pub mod marching;
 pub mod obj;
 pub mod pipeline;
 pub mod render;
+pub mod roundtrip;
 pub mod simplify;
 pub mod source;
 pub mod textures;
@@ -34,7 +37,14 @@ pub use marching::{MarchingOptions, MarchingStats, extract_surface};
 pub use pipeline::{
     ExportFiles, ExportOptions, ExportReport, Exported, export_asset, export_to_dir, write_export,
 };
-pub use render::{AssetTracer, FlashImage, FlashSettings, flash_psnr, render_source_flash};
+pub use render::{
+    AssetHit, AssetTracer, AssetView, FlashImage, FlashSettings, LightingSettings, flash_psnr,
+    render_source_flash,
+};
+pub use roundtrip::{
+    ProjectionStats, ReferenceOptions, ViewRoundTrip, flash_round_trip, level_set_reference,
+    project_to_level_set,
+};
 pub use source::{AnalyticSource, FieldSource, MAX_BATCH};
 
 use std::io::Write;

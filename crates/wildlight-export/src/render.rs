@@ -1,17 +1,17 @@
-//! Ray tracing the flash term of SPEC §2 — of an exported asset (textures
-//! sampled bilinearly at the hit's UV, normal-mapped normal) and of a
-//! [`FieldSource`] (sphere tracing of its SDF) — with a dataset's cameras.
-//! Comparing the two measures an export's round trip.
-//!
-//! Only the flash term is rendered; lighting an asset with an environment
-//! map is not implemented here.
+//! Rendering an exported asset with a capture's cameras — its flash term
+//! (SPEC §2) and, optionally, an environment light estimated like the
+//! synthetic captures' ([`wildlight_synth::ambient_radiance`]) — with the
+//! textures sampled bilinearly at each hit's UV and the normal map applied;
+//! and ray tracing the flash term of a [`FieldSource`] (sphere tracing of
+//! its SDF). Comparing the two flash terms measures an export's round trip.
 
 use glam::{DVec3, Mat3, Mat4, Vec2, Vec3};
-use parry3d::query::Ray;
-use parry3d::shape::CompositeShapeRef;
+use rand_pcg::Pcg32;
 use rayon::prelude::*;
 use wildlight_data::{Camera, RgbImage};
 use wildlight_material::{BrdfSettings, PARAM_COUNT, brdf};
+use wildlight_synth::bvh::Bvh;
+use wildlight_synth::{EnvMap, MaterialDefinition, RenderScene, ShadingSettings, SurfacePoint};
 
 use crate::ExportError;
 use crate::bake::{NORMAL, from_tangent_space};
@@ -66,29 +66,171 @@ pub fn flash_radiance(
     [0, 1, 2].map(|i| energy[i] as f32 * rho[i] * k)
 }
 
-/// An exported asset prepared for ray casting (a parry3d BVH).
+/// Where a camera ray meets an exported asset, with what its textures say
+/// there (everything in the normalized frame).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AssetHit {
+    /// The surface point: ray parameter (normalized units, unit direction),
+    /// position, normal-mapped shading normal and face normal, both facing
+    /// the ray's origin.
+    pub surface: SurfacePoint,
+    /// The 9 material parameters sampled from the textures.
+    pub params: [f32; PARAM_COUNT],
+}
+
+/// How an asset is lit by [`AssetTracer::render_view`].
+#[derive(Clone, Debug)]
+pub struct LightingSettings {
+    /// The flash term's settings (BRDF settings and gain γ).
+    pub flash: FlashSettings,
+    /// The environment light, radiance already scaled (None: no ambient
+    /// light; the ambient map is zero).
+    pub env: Option<EnvMap>,
+    /// Environment samples per pixel.
+    pub spp: usize,
+    /// Seed of the environment samples (with the view and pixel index).
+    pub seed: u64,
+}
+
+impl Default for LightingSettings {
+    fn default() -> Self {
+        LightingSettings {
+            flash: FlashSettings::default(),
+            env: None,
+            spp: 64,
+            seed: 0,
+        }
+    }
+}
+
+/// Every per-view map of an asset rendering (row-major, `width × height`),
+/// the same kinds the run renderer writes (docs/conventions.md).
+#[derive(Clone, Debug, PartialEq)]
+pub struct AssetView {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Ambient + flash (the environment where nothing is hit).
+    pub rgb: Vec<[f32; 3]>,
+    /// The flash term.
+    pub flash: Vec<[f32; 3]>,
+    /// The environment light's contribution (the environment itself where
+    /// nothing is hit).
+    pub ambient: Vec<[f32; 3]>,
+    /// Unit shading normal (normalized frame), zero where nothing is hit.
+    pub normal: Vec<[f32; 3]>,
+    /// Distance along the ray to the surface (normalized units), zero where
+    /// nothing is hit.
+    pub depth: Vec<f32>,
+    /// The 9 material parameters, zero where nothing is hit.
+    pub params: Vec<[f32; PARAM_COUNT]>,
+    /// Whether each pixel's ray hit the asset.
+    pub hit: Vec<bool>,
+}
+
+/// An exported asset prepared for ray casting in the normalized frame.
 pub struct AssetTracer<'a> {
     asset: &'a Asset,
-    shape: parry3d::shape::TriMesh,
-    from_normalized: Mat4,
+    bvh: Bvh,
+    /// The asset's mesh in the normalized frame, for shadow rays.
+    shadows: RenderScene,
+    to_normalized: Mat4,
 }
 
 impl<'a> AssetTracer<'a> {
-    /// Builds the BVH. `asset_to_normalized` maps the asset's frame to the
-    /// normalized frame (the inverse of scale_mat for a world-unit export).
+    /// Builds the ray-casting structures. `asset_to_normalized` maps the
+    /// asset's frame to the normalized frame (the inverse of scale_mat for
+    /// a world-unit export).
     pub fn new(asset: &'a Asset, asset_to_normalized: Mat4) -> Result<Self, ExportError> {
-        let positions: Vec<parry3d::math::Vector> = asset
-            .mesh
-            .positions
+        let mesh = &asset.mesh;
+        if mesh.triangles.is_empty() {
+            return Err(ExportError::stage(
+                "ray tracing",
+                "the asset has no triangles",
+            ));
+        }
+        let n = mesh.positions.len();
+        if mesh.normals.len() != n || mesh.tangents.len() != n || mesh.uvs.len() != n {
+            return Err(ExportError::stage(
+                "ray tracing",
+                "the asset's normals, tangents and UVs do not match its vertices",
+            ));
+        }
+        if let Some(t) = mesh
+            .triangles
             .iter()
-            .map(|p| parry3d::math::Vector::new(p.x, p.y, p.z))
-            .collect();
-        let shape = parry3d::shape::TriMesh::new(positions, asset.mesh.triangles.clone())
-            .map_err(|e| ExportError::stage("ray tracing", format!("cannot build the BVH: {e}")))?;
+            .find(|t| t.iter().any(|&v| v as usize >= n))
+        {
+            return Err(ExportError::stage(
+                "ray tracing",
+                format!("triangle {t:?} refers to a vertex beyond the {n} vertices"),
+            ));
+        }
+        let normalized = wildlight_mesh::TriMesh::new(
+            mesh.positions
+                .iter()
+                .map(|p| asset_to_normalized.transform_point3(*p))
+                .collect(),
+            mesh.triangles.clone(),
+        );
+        let positions: Vec<DVec3> = normalized.positions.iter().map(|p| p.as_dvec3()).collect();
+        let bvh = Bvh::new(&positions, &normalized.triangles);
+        let placeholder = MaterialDefinition::Constant {
+            material: wildlight_material::Material::default(),
+        };
         Ok(AssetTracer {
             asset,
-            shape,
-            from_normalized: asset_to_normalized.inverse(),
+            bvh,
+            shadows: RenderScene::new(&normalized, placeholder),
+            to_normalized: asset_to_normalized,
+        })
+    }
+
+    /// The first hit of the ray from `origin` along unit `dir` (normalized
+    /// frame), with the textures sampled there.
+    pub fn trace(&self, origin: DVec3, dir: DVec3) -> Option<AssetHit> {
+        let hit = self.bvh.intersect(origin, dir, 0.0, f64::INFINITY)?;
+        let hit = self.bvh.refine(origin, dir, hit);
+        let mesh = &self.asset.mesh;
+        let [ia, ib, ic] = mesh.triangles[hit.triangle as usize].map(|v| v as usize);
+        let (wa, wb, wc) = ((1.0 - hit.u - hit.v) as f32, hit.u as f32, hit.v as f32);
+        let uv: Vec2 = mesh.uvs[ia] * wa + mesh.uvs[ib] * wb + mesh.uvs[ic] * wc;
+        let n = mesh.normals[ia] * wa + mesh.normals[ib] * wb + mesh.normals[ic] * wc;
+        let tan = mesh.tangents[ia] * wa + mesh.tangents[ib] * wb + mesh.tangents[ic] * wc;
+        let texel = self.asset.textures.sample(uv);
+        let local = Vec3::new(texel[NORMAL], texel[NORMAL + 1], texel[NORMAL + 2]);
+        // Normals follow the inverse transpose of the frame change.
+        let normal_map = Mat3::from_mat4(self.to_normalized.inverse()).transpose();
+        let shading = (normal_map * from_tangent_space(local, n, tan.truncate(), tan.w))
+            .normalize_or_zero()
+            .as_dvec3();
+        let [a, b, c] = [ia, ib, ic].map(|v| {
+            self.to_normalized
+                .transform_point3(mesh.positions[v])
+                .as_dvec3()
+        });
+        let mut face = (b - a).cross(c - a).normalize_or_zero();
+        let mut shading = if shading == DVec3::ZERO {
+            face
+        } else {
+            shading
+        };
+        if face.dot(dir) > 0.0 {
+            // seen from behind
+            face = -face;
+            shading = -shading;
+        }
+        let mut params = [0.0f32; PARAM_COUNT];
+        params.copy_from_slice(&texel[..PARAM_COUNT]);
+        Some(AssetHit {
+            surface: SurfacePoint {
+                t: hit.t,
+                position: origin + dir * hit.t,
+                normal: shading,
+                geometric_normal: face,
+            },
+            params,
         })
     }
 
@@ -96,54 +238,16 @@ impl<'a> AssetTracer<'a> {
     /// energy and pixel grid).
     pub fn render_flash(&self, camera: &Camera, settings: &FlashSettings) -> FlashImage {
         let (w, h) = (camera.width as usize, camera.height as usize);
-        let normal_to_normalized = Mat3::from_mat4(self.from_normalized).transpose();
-        let mesh = &self.asset.mesh;
         let pixels: Vec<Option<[f32; 3]>> = (0..w * h)
             .into_par_iter()
             .map(|i| {
                 let ray = camera.ray((i % w) as f64, (i / w) as f64);
-                let (_, far) = ray.near_far_unit_sphere()?;
-                let o = self.from_normalized.transform_point3(ray.origin.as_vec3());
-                let d = self.from_normalized.transform_vector3(ray.dir.as_vec3());
-                // With the direction mapped (not re-normalized), the hit
-                // parameter is the normalized-frame distance along the ray.
-                let pray = Ray::new(
-                    parry3d::math::Vector::new(o.x, o.y, o.z),
-                    parry3d::math::Vector::new(d.x, d.y, d.z),
-                );
-                let (tri, hit) = CompositeShapeRef(&self.shape).cast_local_ray_and_get_normal(
-                    &pray,
-                    (far * 1.5 + 1.0) as f32,
-                    true,
-                )?;
-                let t = hit.time_of_impact;
-                let p = o + d * t;
-                let [ia, ib, ic] = mesh.triangles[tri as usize].map(|v| v as usize);
-                let bary = barycentric(
-                    p,
-                    mesh.positions[ia],
-                    mesh.positions[ib],
-                    mesh.positions[ic],
-                );
-                let uv: Vec2 =
-                    mesh.uvs[ia] * bary.x + mesh.uvs[ib] * bary.y + mesh.uvs[ic] * bary.z;
-                let n = mesh.normals[ia] * bary.x
-                    + mesh.normals[ib] * bary.y
-                    + mesh.normals[ic] * bary.z;
-                let tan = mesh.tangents[ia] * bary.x
-                    + mesh.tangents[ib] * bary.y
-                    + mesh.tangents[ic] * bary.z;
-                let texel = self.asset.textures.sample(uv);
-                let local = Vec3::new(texel[NORMAL], texel[NORMAL + 1], texel[NORMAL + 2]);
-                let n_asset = from_tangent_space(local, n, tan.truncate(), tan.w);
-                let n_norm = (normal_to_normalized * n_asset).normalize_or_zero();
-                let mut params = [0.0f32; PARAM_COUNT];
-                params.copy_from_slice(&texel[..PARAM_COUNT]);
+                let hit = self.trace(ray.origin, ray.dir)?;
                 Some(flash_radiance(
-                    &params,
-                    n_norm,
+                    &hit.params,
+                    hit.surface.normal.as_vec3(),
                     -ray.dir.as_vec3(),
-                    t,
+                    hit.surface.t as f32,
                     camera.light_energy,
                     settings,
                 ))
@@ -151,20 +255,131 @@ impl<'a> AssetTracer<'a> {
             .collect();
         to_flash_image(camera, pixels)
     }
+
+    /// Renders every map of the view of `camera` at `scale` × its
+    /// resolution (pixel centres mapped into the camera's own pixel grid as
+    /// the run renderer does), with the flash energy `energy` (zero: no
+    /// flash) and the lighting of `settings`. `view` seeds the
+    /// environment samples together with `settings.seed` and the pixel.
+    pub fn render_view(
+        &self,
+        camera: &Camera,
+        energy: [f64; 3],
+        scale: f64,
+        view: usize,
+        settings: &LightingSettings,
+    ) -> AssetView {
+        let width = ((camera.width as f64 * scale).round() as u32).max(1);
+        let height = ((camera.height as f64 * scale).round() as u32).max(1);
+        let (sx, sy) = (
+            camera.width as f64 / width as f64,
+            camera.height as f64 / height as f64,
+        );
+        let shading = ShadingSettings {
+            spp: settings.spp.max(1),
+            brdf: settings.flash.brdf,
+            noise: 0.0,
+            saturation: None,
+            seed: settings.seed,
+        };
+        let w = width as usize;
+        let pixels: Vec<Pixel> = (0..w * height as usize)
+            .into_par_iter()
+            .map(|i| {
+                let (x, y) = ((i % w) as f64, (i / w) as f64);
+                let ray = camera.ray((x + 0.5) * sx - 0.5, (y + 0.5) * sy - 0.5);
+                let dir = ray.dir.normalize();
+                let Some(hit) = self.trace(ray.origin, dir) else {
+                    let background = settings
+                        .env
+                        .as_ref()
+                        .map_or([0.0; 3], |env| env.radiance(dir).as_vec3().to_array());
+                    return Pixel {
+                        ambient: background,
+                        ..Pixel::default()
+                    };
+                };
+                let sp = hit.surface;
+                let flash = flash_radiance(
+                    &hit.params,
+                    sp.normal.as_vec3(),
+                    -dir.as_vec3(),
+                    sp.t as f32,
+                    energy,
+                    &settings.flash,
+                );
+                let ambient = settings.env.as_ref().map_or([0.0; 3], |env| {
+                    let mut rng = pixel_rng(settings.seed, view, i);
+                    let params = hit.params.map(f64::from);
+                    wildlight_synth::ambient_radiance(
+                        &self.shadows,
+                        env,
+                        &sp,
+                        -dir,
+                        &params,
+                        &shading,
+                        &mut rng,
+                    )
+                    .as_vec3()
+                    .to_array()
+                });
+                Pixel {
+                    flash,
+                    ambient,
+                    normal: sp.normal.as_vec3().to_array(),
+                    depth: sp.t as f32,
+                    params: hit.params,
+                    hit: true,
+                }
+            })
+            .collect();
+        let mut out = AssetView {
+            width,
+            height,
+            rgb: Vec::with_capacity(pixels.len()),
+            flash: Vec::with_capacity(pixels.len()),
+            ambient: Vec::with_capacity(pixels.len()),
+            normal: Vec::with_capacity(pixels.len()),
+            depth: Vec::with_capacity(pixels.len()),
+            params: Vec::with_capacity(pixels.len()),
+            hit: Vec::with_capacity(pixels.len()),
+        };
+        for p in pixels {
+            out.rgb.push([0, 1, 2].map(|c| p.ambient[c] + p.flash[c]));
+            out.flash.push(p.flash);
+            out.ambient.push(p.ambient);
+            out.normal.push(p.normal);
+            out.depth.push(p.depth);
+            out.params.push(p.params);
+            out.hit.push(p.hit);
+        }
+        out
+    }
 }
 
-/// Barycentric coordinates of `p` (on or near the triangle's plane).
-fn barycentric(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
-    let (v0, v1, v2) = (b - a, c - a, p - a);
-    let (d00, d01, d11) = (v0.dot(v0), v0.dot(v1), v1.dot(v1));
-    let (d20, d21) = (v2.dot(v0), v2.dot(v1));
-    let denom = d00 * d11 - d01 * d01;
-    if denom.abs() < 1e-20 {
-        return Vec3::new(1.0, 0.0, 0.0);
-    }
-    let v = (d11 * d20 - d01 * d21) / denom;
-    let w = (d00 * d21 - d01 * d20) / denom;
-    Vec3::new(1.0 - v - w, v, w)
+/// One pixel of [`AssetTracer::render_view`].
+#[derive(Clone, Copy, Default)]
+struct Pixel {
+    flash: [f32; 3],
+    ambient: [f32; 3],
+    normal: [f32; 3],
+    depth: f32,
+    params: [f32; PARAM_COUNT],
+    hit: bool,
+}
+
+/// SplitMix64 finalizer: a well-mixed 64-bit hash.
+fn mix64(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// The random numbers of one pixel, independent of the thread schedule.
+fn pixel_rng(seed: u64, view: usize, pixel: usize) -> Pcg32 {
+    let h = mix64(seed ^ mix64(view as u64 ^ mix64(pixel as u64)));
+    Pcg32::new(h, mix64(h) | 1)
 }
 
 fn to_flash_image(camera: &Camera, pixels: Vec<Option<[f32; 3]>>) -> FlashImage {

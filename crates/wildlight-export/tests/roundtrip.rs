@@ -1,5 +1,7 @@
 //! End-to-end checks of an export of an analytic torus: geometry, texel
-//! values, dilation, the flash round trip, files and the glTF validator.
+//! values, dilation, the flash round trip, the eq. 16 round trip, rendering
+//! an asset with every map and an environment light, files and the glTF
+//! validator.
 
 mod common;
 
@@ -9,7 +11,8 @@ use glam::{Mat3, Vec3};
 use wildlight_eval::{SurfaceDistanceOptions, surface_distance};
 use wildlight_export::bake::{NORMAL, rasterize, to_tangent_space};
 use wildlight_export::{
-    AssetTracer, FlashSettings, flash_psnr, read_glb, render_source_flash, write_export,
+    AssetTracer, FlashSettings, LightingSettings, MarchingOptions, ReferenceOptions, flash_psnr,
+    level_set_reference, read_glb, render_source_flash, write_export,
 };
 
 fn written() -> (tempfile::TempDir, wildlight_export::ExportFiles) {
@@ -261,4 +264,194 @@ validator.validateBytes(bytes, {maxIssues: 50}).then((report) => {
     println!("{report}{}", String::from_utf8_lossy(&out.stderr));
     assert!(out.status.success(), "validator reported errors:\n{report}");
     assert!(report.contains("\"numErrors\": 0"), "{report}");
+}
+
+/// Amplitude of the ground truth's bumps (normalized units).
+const BUMP: f32 = 0.02;
+
+/// The "ground truth" of the eq. 16 check: the torus with bumps of
+/// amplitude [`BUMP`] along its normal, dense, in world units.
+fn bumpy_ground_truth_world() -> wildlight_mesh::TriMesh {
+    wildlight_eval::shapes::torus(common::MAJOR, common::MINOR, 720, 360, |u, v| {
+        BUMP * (3.0 * u).sin() * (2.0 * v).sin()
+    })
+    .transformed(&common::scale_mat())
+}
+
+#[test]
+fn raw_mesh_scores_the_eq16_distance_of_the_level_set_within_one_percent() {
+    let e = common::exported();
+    let source = common::source();
+    // The zero level set's reference: a 2× finer extraction, vertices
+    // projected onto the level set.
+    let options = ReferenceOptions {
+        marching: MarchingOptions {
+            resolution: 192,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let (reference, stats) =
+        level_set_reference(&source, &options, &indicatif::ProgressBar::hidden()).unwrap();
+    assert!(stats.max_abs_sdf_after < 1e-5, "{stats:?}");
+    assert!(stats.max_abs_sdf_after < 0.01 * stats.max_abs_sdf_before);
+    let reference = reference.transformed(&common::scale_mat());
+    let gt = bumpy_ground_truth_world();
+    let opts = SurfaceDistanceOptions {
+        max_pairs: 200_000,
+        ..Default::default()
+    };
+    let raw = surface_distance(&e.raw_mesh, &gt, &opts).unwrap();
+    let level_set = surface_distance(&reference, &gt, &opts).unwrap();
+    // Independent value: the bumps' mean height over the torus,
+    // BUMP · E|sin 3u| · E|sin 2v| = BUMP · (2/π)², in world units (× 2.5).
+    let expected = 2.5 * BUMP as f64 * (2.0 / std::f64::consts::PI).powi(2);
+    println!(
+        "eq. 16: raw {:.5e}, level set {:.5e}, expected {expected:.5e}",
+        raw.mean, level_set.mean
+    );
+    assert!(
+        (level_set.mean - expected).abs() < 0.03 * expected,
+        "level set {} vs expected {expected}",
+        level_set.mean
+    );
+    let relative = (raw.mean - level_set.mean).abs() / level_set.mean;
+    assert!(
+        relative < 0.01,
+        "raw {} vs level set {}: {relative}",
+        raw.mean,
+        level_set.mean
+    );
+}
+
+/// A sphere of radius 0.6 with one constant material, exported small.
+fn constant_sphere() -> (wildlight_export::Exported, wildlight_material::Material) {
+    let material = wildlight_material::Material {
+        base_color: [0.7, 0.45, 0.2],
+        roughness: 0.55,
+        clearcoat_gloss: 0.5,
+        subsurface: 0.1,
+        metallic: 0.15,
+        dielectric: 0.5,
+        clearcoat: 0.2,
+    };
+    let params = material.to_array::<f32>();
+    let source = wildlight_export::AnalyticSource::new(|p: Vec3| p.length() - 0.6, move |_| params)
+        .with_gradient(|p: Vec3| p.normalize_or_zero());
+    let options = wildlight_export::ExportOptions {
+        marching: MarchingOptions {
+            resolution: 64,
+            ..Default::default()
+        },
+        max_faces: 4000,
+        atlas: wildlight_export::AtlasOptions {
+            texture_size: 256,
+            ..Default::default()
+        },
+        scale_mat: common::scale_mat(),
+        progress: false,
+        ..Default::default()
+    };
+    (
+        wildlight_export::export_asset(&source, &options).unwrap(),
+        material,
+    )
+}
+
+#[test]
+fn asset_view_has_the_flash_term_and_the_synthetic_environment_light() {
+    let (exported, material) = constant_sphere();
+    let tracer = AssetTracer::new(&exported.asset, common::scale_mat().inverse()).unwrap();
+    let env = wildlight_synth::EnvMap::procedural_sky();
+    let lighting = LightingSettings {
+        env: Some(env.clone()),
+        spp: 32,
+        ..Default::default()
+    };
+    let camera = &common::cameras()[1];
+    let view = tracer.render_view(camera, camera.light_energy, 1.0, camera.index, &lighting);
+    // The flash map is the flash term of render_flash; depth the ray distance.
+    let flash = tracer.render_flash(camera, &lighting.flash);
+    assert_eq!(view.hit, flash.hit);
+    assert!(view.hit.iter().filter(|h| **h).count() > 400);
+    for (i, hit) in view.hit.iter().enumerate() {
+        let want = &flash.image.data[i * 3..i * 3 + 3];
+        assert_eq!(&view.flash[i][..], want);
+        for c in 0..3 {
+            assert!((view.rgb[i][c] - view.flash[i][c] - view.ambient[i][c]).abs() < 1e-6);
+        }
+        if *hit {
+            // On the sphere |p| = 0.6 (normalized frame), or inside it by
+            // the faceting of 4000 faces (sagitta of a face ≈ 2.5e-3).
+            let ray = camera.ray((i % 64) as f64, (i / 64) as f64);
+            let p = ray.at(view.depth[i] as f64);
+            assert!(
+                p.length() < 0.6 + 1e-4 && p.length() > 0.6 - 4e-3,
+                "pixel {i}: |p| = {}",
+                p.length()
+            );
+            let n = Vec3::from_array(view.normal[i]);
+            assert!(n.angle_between(p.as_vec3().normalize()) < 0.05, "pixel {i}");
+            for (k, want) in material.to_array::<f32>().iter().enumerate() {
+                assert!(
+                    (view.params[i][k] - want).abs() < 0.6 / 255.0 + 0.003,
+                    "param {k}"
+                );
+            }
+        } else {
+            assert_eq!(view.depth[i], 0.0);
+            let sky = env.radiance(ray_dir(camera, i)).as_vec3().to_array();
+            assert_eq!(view.ambient[i], sky);
+        }
+    }
+    // The environment term against the synthetic renderer's own rendering
+    // of the same mesh with the same (constant) material.
+    let normalized = wildlight_mesh::TriMesh::new(
+        exported
+            .asset
+            .mesh
+            .positions
+            .iter()
+            .map(|p| common::scale_mat().inverse().transform_point3(*p))
+            .collect(),
+        exported.asset.mesh.triangles.clone(),
+    );
+    let scene = wildlight_synth::RenderScene::new(
+        &normalized,
+        wildlight_synth::MaterialDefinition::Constant { material },
+    );
+    let settings = wildlight_synth::ShadingSettings {
+        spp: 32,
+        brdf: Default::default(),
+        noise: 0.0,
+        saturation: None,
+        seed: 7,
+    };
+    let synth =
+        wildlight_synth::render_view(&scene, &env, camera, 1, &settings, 2.5, &|| {}).unwrap();
+    let (mut ours, mut theirs, mut n) = ([0.0f64; 3], [0.0f64; 3], 0);
+    for (i, hit) in view.hit.iter().enumerate() {
+        let (x, y) = ((i % 64) as u32, (i / 64) as u32);
+        if *hit && synth.normal.get(x, y) != [0.0; 3] {
+            let s = synth.ambient.get(x, y);
+            for c in 0..3 {
+                ours[c] += view.ambient[i][c] as f64;
+                theirs[c] += s[c] as f64;
+            }
+            n += 1;
+        }
+    }
+    assert!(n > 400);
+    for c in 0..3 {
+        assert!(
+            (ours[c] - theirs[c]).abs() < 0.03 * theirs[c],
+            "channel {c}: mean ambient {} vs synthetic {}",
+            ours[c] / n as f64,
+            theirs[c] / n as f64
+        );
+    }
+}
+
+fn ray_dir(camera: &wildlight_data::Camera, i: usize) -> glam::DVec3 {
+    camera.ray((i % 64) as f64, (i / 64) as f64).dir.normalize()
 }

@@ -36,6 +36,9 @@ pub use capture::{CaptureSummary, SceneSource, SynthOptions, scene_mesh, synthes
 pub use env_map::EnvMap;
 pub use error::SynthError;
 pub use ground_truth::{GroundTruthMaterial, MaterialDefinition};
-pub use render::{RenderScene, ShadingSettings, SurfacePoint, ViewImages, flash_term, render_view};
+pub use render::{
+    RenderScene, ShadingSettings, SurfacePoint, ViewImages, ambient_radiance, flash_term,
+    render_view,
+};
 pub use rig::{RigOptions, RigView, Split};
 pub use scenes::BuiltinScene;

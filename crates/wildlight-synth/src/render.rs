@@ -236,6 +236,23 @@ fn ambient(
     sum
 }
 
+/// Estimates the environment (ambient) radiance leaving `sp` towards `v`
+/// (unit, towards the viewer) for the material `params`: the estimator
+/// every synthetic view uses (MIS of environment and BRDF sampling, with
+/// shadows from `scene`), for renderers of other surfaces, e.g. an
+/// exported asset whose `params` and `sp.normal` come from its textures.
+pub fn ambient_radiance(
+    scene: &RenderScene,
+    env: &EnvMap,
+    sp: &SurfacePoint,
+    v: DVec3,
+    params: &[f64; 9],
+    settings: &ShadingSettings,
+    rng: &mut Pcg32,
+) -> DVec3 {
+    ambient(scene, env, sp, v, params, settings, rng)
+}
+
 /// The flash term of SPEC §2 for a surface point seen by a camera at
 /// distance `t` along `dir`: E ⊙ ρ(n, h; Θ) max(0, n·h) / t², h = −dir.
 pub fn flash_term(
