@@ -66,6 +66,7 @@ pub mod activation;
 pub mod adam;
 pub mod bench;
 pub mod checkpoint;
+pub mod dense;
 pub mod error;
 pub mod hash_grid;
 pub mod memory;

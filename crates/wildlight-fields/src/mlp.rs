@@ -9,15 +9,17 @@
 //! A chunk's input rows and their gradient are stored column-major (each
 //! input column contiguous, leading dimension [`MlpChunk::ld`]), so that an
 //! encoder filling one column group for many chunks writes and reads
-//! contiguous runs; the layer outputs are row-major.
+//! contiguous runs; the layer outputs are stored the same way, and the
+//! layers run on the kernels of [`crate::dense`].
 //!
 //! Parameter layout: layer after layer, the weight matrix `W` (`out × in`,
 //! row-major) followed by the bias (`out`). A layer computes
 //! `a = act(W · input + b)`.
 
 use crate::activation::Activation;
+use crate::dense::{linear_backward_params, linear_forward};
 use crate::error::FieldError;
-use crate::real::{Real, gemm_strided};
+use crate::real::Real;
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -72,7 +74,8 @@ pub struct MlpChunk<T> {
     pub ld: usize,
     /// Input values (column-major, see `ld`), filled by the caller before [`Mlp::forward_chunk`].
     pub input: Vec<T>,
-    /// Output of each layer (`rows × width`), after its activation.
+    /// Output of each layer after its activation (column-major: unit `o` of
+    /// row `r` at `o · ld + r`).
     pub acts: Vec<Vec<T>>,
     /// Gradient w.r.t. the inputs (column-major like `input`), written by [`Mlp::backward_chunk`].
     pub d_input: Vec<T>,
@@ -81,9 +84,26 @@ pub struct MlpChunk<T> {
 }
 
 impl<T: Real> MlpChunk<T> {
-    /// The last layer's output rows.
+    /// The last layer's outputs (column-major, leading dimension `ld`).
     pub fn output(&self) -> &[T] {
         self.acts.last().map(|a| a.as_slice()).unwrap_or(&[])
+    }
+    /// Writes the last layer's outputs as `rows × n_output` row-major values into `out`.
+    pub fn write_output_rows(&self, out: &mut [T]) {
+        let src = self.output();
+        let n_out = src.len() / self.ld.max(1);
+        assert!(
+            out.len() >= self.rows * n_out,
+            "write_output_rows: out too small"
+        );
+        if n_out == 0 {
+            return;
+        }
+        for (r, row) in out.chunks_exact_mut(n_out).take(self.rows).enumerate() {
+            for (o, v) in row.iter_mut().enumerate() {
+                *v = src[o * self.ld + r];
+            }
+        }
     }
 }
 
@@ -192,123 +212,95 @@ impl<T: Real> Mlp<T> {
         ch.input.resize(ch.ld * self.config.n_input, T::ZERO);
         ch.acts.resize_with(self.layers.len(), Vec::new);
         for (a, l) in ch.acts.iter_mut().zip(&self.layers) {
-            a.resize(rows * l.n_out, T::ZERO);
+            a.resize(ch.ld * l.n_out, T::ZERO);
         }
         ch.d_input.resize(ch.ld * self.config.n_input, T::ZERO);
         ch.grad.resize(self.params.len(), T::ZERO);
     }
 
-    /// Forward pass of one chunk whose `input` rows are filled (after [`Mlp::prepare_chunk`]).
+    /// Forward pass of one chunk whose `input` is filled (after [`Mlp::prepare_chunk`]).
     pub fn forward_chunk(&self, ch: &mut MlpChunk<T>) {
-        let rows = ch.rows;
+        let (rows, ld) = (ch.rows, ch.ld);
         for (i, l) in self.layers.iter().enumerate() {
             let (before, after) = ch.acts.split_at_mut(i);
-            // (row, column) strides of the layer input
-            let (input, s_in): (&[T], _) = if i == 0 {
-                (&ch.input, (1, ch.ld))
-            } else {
-                (&before[i - 1], (l.n_in, 1))
-            };
-            let out = &mut after[0][..rows * l.n_out];
-            let bias = &self.params[l.bias_offset..l.bias_offset + l.n_out];
-            for row in out.chunks_exact_mut(l.n_out) {
-                row.copy_from_slice(bias);
-            }
+            let input: &[T] = if i == 0 { &ch.input } else { &before[i - 1] };
+            let out = &mut after[0][..l.n_out * ld];
             let w = &self.params[l.weight_offset..l.bias_offset];
-            gemm_strided(
-                rows,
-                l.n_in,
-                l.n_out,
-                T::ONE,
-                input,
-                s_in,
-                w,
-                (1, l.n_in),
-                T::ONE,
-                out,
-                (l.n_out, 1),
-            );
-            self.activation(i).forward_in_place(out);
+            let bias = &self.params[l.bias_offset..l.bias_offset + l.n_out];
+            linear_forward(l.n_in, l.n_out, rows, ld, w, (l.n_in, 1), bias, input, out);
+            let act = self.activation(i);
+            if rows == ld {
+                act.forward_in_place(out);
+            } else {
+                for col in out.chunks_exact_mut(ld) {
+                    act.forward_in_place(&mut col[..rows]);
+                }
+            }
         }
     }
 
     /// Backward pass of one chunk after [`Mlp::forward_chunk`]: given `d_out`
-    /// (`rows × n_output`, w.r.t. the activated outputs), overwrites `ch.grad`
-    /// with this chunk's parameter gradient and `ch.d_input` with the gradient
-    /// w.r.t. the inputs.
+    /// (`rows × n_output`, row-major, w.r.t. the activated outputs), overwrites
+    /// `ch.grad` with this chunk's parameter gradient and `ch.d_input` with the
+    /// gradient w.r.t. the inputs.
     pub fn backward_chunk(&self, ch: &mut MlpChunk<T>, d_out: &[T], sc: &mut MlpScratch<T>) {
-        let rows = ch.rows;
+        let (rows, ld) = (ch.rows, ch.ld);
         let max_w = self
             .layers
             .iter()
             .map(|l| l.n_out.max(l.n_in))
             .max()
             .unwrap_or(0);
-        if sc.delta.len() < rows * max_w {
-            sc.delta.resize(rows * max_w, T::ZERO);
-            sc.delta_prev.resize(rows * max_w, T::ZERO);
+        if sc.delta.len() < ld * max_w {
+            sc.delta.resize(ld * max_w, T::ZERO);
+            sc.delta_prev.resize(ld * max_w, T::ZERO);
         }
         let n_layers = self.layers.len();
         ch.grad.fill(T::ZERO);
         let last = self.layers[n_layers - 1];
-        sc.delta[..rows * last.n_out].copy_from_slice(&d_out[..rows * last.n_out]);
-        self.activation(n_layers - 1).backward_in_place(
-            &ch.acts[n_layers - 1][..rows * last.n_out],
-            &mut sc.delta[..rows * last.n_out],
+        let n_out = last.n_out;
+        assert!(d_out.len() >= rows * n_out, "mlp backward: d_out length");
+        for (r, row) in d_out[..rows * n_out].chunks_exact(n_out).enumerate() {
+            for (o, &v) in row.iter().enumerate() {
+                sc.delta[o * ld + r] = v;
+            }
+        }
+        let act_backward = |act: Activation, a: &[T], d: &mut [T], width: usize| {
+            for (ac, dc) in a[..width * ld]
+                .chunks_exact(ld)
+                .zip(d[..width * ld].chunks_exact_mut(ld))
+            {
+                act.backward_in_place(&ac[..rows], &mut dc[..rows]);
+            }
+        };
+        act_backward(
+            self.activation(n_layers - 1),
+            &ch.acts[n_layers - 1],
+            &mut sc.delta,
+            n_out,
         );
         for i in (0..n_layers).rev() {
             let l = self.layers[i];
-            let (input, s_in): (&[T], _) = if i == 0 {
-                (&ch.input, (1, ch.ld))
-            } else {
-                (&ch.acts[i - 1], (l.n_in, 1))
-            };
-            let delta = &sc.delta[..rows * l.n_out];
-            // dW += deltaᵀ · input
+            let input: &[T] = if i == 0 { &ch.input } else { &ch.acts[i - 1] };
+            let delta = &sc.delta[..l.n_out * ld];
+            // dW += delta · inputᵀ, db += Σ_r delta
             let (gw, gb) =
                 ch.grad[l.weight_offset..l.bias_offset + l.n_out].split_at_mut(l.n_in * l.n_out);
-            gemm_strided(
-                l.n_out,
-                rows,
-                l.n_in,
-                T::ONE,
-                delta,
-                (1, l.n_out),
-                input,
-                s_in,
-                T::ONE,
-                gw,
-                (l.n_in, 1),
-            );
-            for row in delta.chunks_exact(l.n_out) {
-                for (g, &d) in gb.iter_mut().zip(row) {
-                    *g += d;
-                }
-            }
-            // d input = delta · W
+            linear_backward_params(l.n_in, l.n_out, rows, ld, delta, input, gw, gb);
+            // d input = Wᵀ · delta
             let w = &self.params[l.weight_offset..l.bias_offset];
-            let (dst, s_dst): (&mut [T], _) = if i == 0 {
-                (&mut ch.d_input[..], (1, ch.ld))
+            let dst: &mut [T] = if i == 0 {
+                &mut ch.d_input[..l.n_in * ld]
             } else {
-                (&mut sc.delta_prev[..rows * l.n_in], (l.n_in, 1))
+                &mut sc.delta_prev[..l.n_in * ld]
             };
-            gemm_strided(
-                rows,
-                l.n_out,
-                l.n_in,
-                T::ONE,
-                delta,
-                (l.n_out, 1),
-                w,
-                (l.n_in, 1),
-                T::ZERO,
-                dst,
-                s_dst,
-            );
+            linear_forward(l.n_out, l.n_in, rows, ld, w, (1, l.n_in), &[], delta, dst);
             if i > 0 {
-                self.activation(i - 1).backward_in_place(
-                    &ch.acts[i - 1][..rows * l.n_in],
-                    &mut sc.delta_prev[..rows * l.n_in],
+                act_backward(
+                    self.activation(i - 1),
+                    &ch.acts[i - 1],
+                    &mut sc.delta_prev,
+                    l.n_in,
                 );
                 std::mem::swap(&mut sc.delta, &mut sc.delta_prev);
             }
@@ -348,7 +340,7 @@ impl<T: Real> Mlp<T> {
                     }
                 }
                 self.forward_chunk(ch);
-                out.copy_from_slice(ch.output());
+                ch.write_output_rows(out);
             });
     }
 

@@ -221,7 +221,7 @@ impl<T: Real> NeuralField<T> {
             .zip(ctx.output.par_chunks_mut(CHUNK_ROWS * n_out))
             .for_each(|(ch, out)| {
                 self.mlp.forward_chunk(ch);
-                out.copy_from_slice(ch.output());
+                ch.write_output_rows(out);
             });
     }
 
