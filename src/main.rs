@@ -11,7 +11,15 @@ mod plot;
 /// Inverse rendering with a flashlight: shape and materials from
 /// flash / no-flash photographs with known camera poses.
 #[derive(Parser)]
-#[command(name = "wildlight", version, about, long_about = None, propagate_version = true)]
+#[command(
+    name = "wildlight",
+    version,
+    about,
+    long_about = None,
+    propagate_version = true,
+    after_help = "Start with `wildlight demo --quick` (about two minutes). README.md explains how to \
+                  capture your own object; `wildlight <COMMAND> --help` lists every option with its default."
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

@@ -16,10 +16,10 @@ use wildlight_material::{BrdfSettings, Material, brdf};
 /// Output: one JSON `[r,g,b]` line per input line, in the same order.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// File of JSON lines (reads standard input when left out).
+    /// File of JSON lines [default: standard input].
     pub file: Option<PathBuf>,
     /// Clearcoat Fresnel F_c (appendix eq. 14 uses 0.2; the public WildLight code 0.04).
-    #[arg(long, default_value_t = 0.2)]
+    #[arg(long, value_name = "F_C", default_value_t = 0.2)]
     pub clearcoat_fresnel: f64,
     /// Instead of printing values, draw ρ (RGB) against the angle between n
     /// and h (0–90°) for every parameter set read, into this PNG. `cos` may

@@ -49,7 +49,7 @@ struct MeshArgs {
     #[arg(long, value_name = "FILE")]
     gt: PathBuf,
     /// Restrict both meshes to the surface these cameras see: a dataset
-    /// folder or a cameras_sphere.npz file.
+    /// folder or a cameras_sphere.npz file [default: none: the whole of both meshes].
     #[arg(long, value_name = "DATASET_DIR_OR_NPZ")]
     cameras: Option<PathBuf>,
     /// The frame both meshes are in; the camera centres are taken in it.
@@ -95,8 +95,8 @@ struct MaterialsArgs {
     /// The synthetic dataset folder (ground truth in <split>/gt/<kind>/).
     #[arg(long, value_name = "DATASET_DIR")]
     gt: PathBuf,
-    /// Which views' ground truth to use (default: val when the dataset has
-    /// val/gt, otherwise train).
+    /// Which views' ground truth to use
+    /// [default: val when the dataset has val/gt, otherwise train].
     #[arg(long, value_enum)]
     split: Option<SplitArg>,
     /// Print one JSON object instead of a table.

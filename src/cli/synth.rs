@@ -12,7 +12,8 @@ use wildlight_synth::{
 #[derive(clap::Args, Debug)]
 #[command(group(clap::ArgGroup::new("object").args(["scene", "mesh", "list"]).required(true)))]
 pub struct Args {
-    /// Built-in scene to render (see --list; the first one is the default benchmark scene).
+    /// Built-in scene to render (see --list; the first one, kettle, is the default
+    /// benchmark scene). Exactly one of --scene, --mesh, --list is required.
     #[arg(long, value_name = "NAME")]
     pub scene: Option<String>,
     /// Render this PLY or OBJ mesh instead, rescaled into the sphere of radius 0.8.
@@ -21,7 +22,7 @@ pub struct Args {
     /// List the built-in scenes (default first) and exit.
     #[arg(long)]
     pub list: bool,
-    /// Output dataset folder.
+    /// Output dataset folder (required unless --list).
     #[arg(long, value_name = "DIR", required_unless_present = "list")]
     pub out: Option<PathBuf>,
     /// Replace an existing capture in --out.
@@ -29,7 +30,7 @@ pub struct Args {
     pub overwrite: bool,
     /// Material: a procedural material name (kettle, sampler, patches) or a JSON object of
     /// material parameters, e.g. '{"base_color":[0.8,0.2,0.1],"roughness":0.3,"metallic":0}'.
-    /// Default: the scene's own material; `patches` for --mesh.
+    /// [default: the scene's own material; `patches` for --mesh]
     #[arg(long, value_name = "NAME|JSON")]
     pub material: Option<String>,
     /// Number of training views.
@@ -77,7 +78,8 @@ pub struct Args {
     /// Ambient Monte Carlo samples per pixel.
     #[arg(long, default_value_t = 64)]
     pub spp: usize,
-    /// Environment map (equirectangular .exr or .hdr, +y up). Default: a procedural sky with a sun.
+    /// Environment map (equirectangular .exr or .hdr, +y up)
+    /// [default: a procedural sky with a sun].
     #[arg(long, value_name = "FILE")]
     pub env: Option<PathBuf>,
     /// Multiplier of the environment radiance.
@@ -86,7 +88,8 @@ pub struct Args {
     /// Sensor noise: Gaussian, standard deviation NOISE·sqrt(value + 0.01) per channel (0 = off).
     #[arg(long, default_value_t = 0.0)]
     pub noise: f64,
-    /// Clip images at this saturation cap and write it as max_intensity (default: no clipping).
+    /// Clip images at this saturation cap and write it as max_intensity
+    /// [default: none: no clipping].
     #[arg(long, value_name = "CAP")]
     pub saturation: Option<f64>,
     /// Clearcoat Fresnel F_c of the material model (SPEC §8: 0.2 appendix, 0.04 reference code).

@@ -9,13 +9,16 @@ use wildlight_train::run::{RunOptions, train};
 /// Options of `wildlight train`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Capture folder (SPEC §5 layout). Not needed with --resume.
+    /// Capture folder (SPEC §5 layout; masks required)
+    /// [default with --resume: the capture recorded in RUN/run.json].
     #[arg(long, value_name = "DIR", required_unless_present_any = ["resume", "print_config"])]
     pub data: Option<PathBuf>,
     /// Run folder: configuration, checkpoints, metrics and previews go here.
     #[arg(long, value_name = "RUN", required_unless_present = "print_config")]
     pub out: Option<PathBuf>,
-    /// TOML configuration; keys left out take their defaults (see --print-config).
+    /// TOML configuration; keys left out take their defaults (see --print-config)
+    /// [default: none: the built-in defaults]. Ignored with --resume (the run's own
+    /// config.toml is used).
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
     /// Print the resolved configuration (defaults + --config + overrides) and exit.
@@ -24,7 +27,8 @@ pub struct Args {
     /// Optimisation steps [default: the configuration's `iters`, 4000].
     #[arg(long, value_name = "N")]
     pub iters: Option<u64>,
-    /// Stop after this much wall time, e.g. 90s, 30m, 1h30m (a checkpoint is written).
+    /// Stop after this much wall time, e.g. 90s, 30m, 1h30m (a checkpoint is written)
+    /// [default: none: stop after --iters steps].
     #[arg(long, value_name = "DURATION", value_parser = parse_duration)]
     pub time_budget: Option<std::time::Duration>,
     /// Seed of every random choice [default: the configuration's `seed`, 0].
@@ -34,7 +38,7 @@ pub struct Args {
     /// --iters may raise the step count).
     #[arg(long)]
     pub resume: bool,
-    /// No progress bar.
+    /// No progress bar (there is none either when stderr is not a terminal).
     #[arg(long)]
     pub quiet: bool,
 }
