@@ -205,7 +205,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         seconds: start.elapsed().as_secs_f64(),
     };
     let preview_path = out.join("preview.png");
-    write_preview(&capture.join("val"), &render_dir, &rendered, &preview_path)?;
+    // The metrics are the demo's result: a preview that cannot be drawn is a
+    // warning, not a failure.
+    let preview = write_preview(&capture.join("val"), &render_dir, &rendered, &preview_path);
+    if let Err(e) = &preview {
+        eprintln!("warning: no preview: {e:#}");
+    }
     let opt = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.2} dB"));
     println!(
         "wildlight demo ({})",
@@ -240,7 +245,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     println!("  renderings    {}", render_dir.display());
     println!("  glTF          {}", files.glb.display());
     println!("  OBJ           {}", files.obj.display());
-    println!("  preview       {}", preview_path.display());
+    if preview.is_ok() {
+        println!("  preview       {}", preview_path.display());
+    }
     println!("  metrics       {}", out.join("demo.json").display());
     let json = serde_json::to_string(&metrics)?;
     wildlight_data::atomic::write_bytes_atomically(&out.join("demo.json"), json.as_bytes())
@@ -385,6 +392,9 @@ pub fn write_preview(
     };
     let (w, h) = (first.gt_photo.width, first.gt_photo.height);
     views.retain(|v| v.size_matches(w, h));
+    if views.is_empty() {
+        bail!("the rendered maps and the ground truth of the held-out views differ in size");
+    }
     let n = (w * h) as usize;
     let object = |v: &PreviewView, img: &wildlight_data::RgbImage| -> Vec<f32> {
         (0..n)
