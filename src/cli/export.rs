@@ -53,7 +53,7 @@ pub fn export_options(
     }
     Ok(ExportOptions {
         marching: MarchingOptions {
-            resolution: resolution,
+            resolution,
             ..MarchingOptions::default()
         },
         max_faces: faces,

@@ -82,23 +82,23 @@ pub struct Args {
     /// Asset only: environment light, an equirectangular .exr or .hdr
     /// file, or `sky` for the synthetic captures' default sky [default: no
     /// ambient light].
-    #[arg(long, value_name = "FILE|sky", requires = "asset")]
+    #[arg(long, value_name = "FILE|sky")]
     pub env: Option<String>,
     /// Asset only: multiplier of the environment's radiance.
-    #[arg(long, default_value_t = 1.0, requires = "env")]
+    #[arg(long, default_value_t = 1.0)]
     pub env_strength: f64,
     /// Asset only: environment samples per pixel.
-    #[arg(long, default_value_t = 64, requires = "env")]
+    #[arg(long, default_value_t = 64)]
     pub spp: usize,
     /// Asset only: seed of the environment samples.
-    #[arg(long, default_value_t = 0, requires = "asset")]
+    #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Asset only: the flash gain γ (SPEC §2) multiplying the capture's
     /// flash energy.
-    #[arg(long, default_value_t = 1.0, requires = "asset")]
+    #[arg(long, default_value_t = 1.0)]
     pub flash_gain: f32,
     /// Asset only: the frame of the asset's vertices.
-    #[arg(long, value_enum, default_value_t = AssetFrame::World, requires = "asset")]
+    #[arg(long, value_enum, default_value_t = AssetFrame::World)]
     pub asset_frame: AssetFrame,
     /// No progress bar.
     #[arg(long)]
@@ -230,6 +230,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn render_run(run: PathBuf, args: &Args) -> anyhow::Result<()> {
+    if args.env.is_some() {
+        bail!("--env lights an exported asset: use it with --asset, not --run");
+    }
     let mut trained = TrainedRun::load(&run)?;
     let data = args
         .data
