@@ -6,14 +6,7 @@ use std::process::Command;
 
 fn demo(dir: &std::path::Path, iters: &str) -> serde_json::Value {
     let out = Command::new(env!("CARGO_BIN_EXE_wildlight"))
-        .args([
-            "demo",
-            "--quick",
-            "--json",
-            "--iters",
-            iters,
-            "--out",
-        ])
+        .args(["demo", "--quick", "--json", "--iters", iters, "--out"])
         .arg(dir)
         .output()
         .expect("the wildlight binary runs");
