@@ -202,3 +202,59 @@ pub fn flash_round_trip<S: FieldSource + ?Sized>(
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::source::AnalyticSource;
+
+    #[test]
+    fn projection_lands_on_the_level_set_of_a_non_distance_field() {
+        // φ = |p|² − 0.25 has |∇φ| ≠ 1: Newton steps, not distance steps.
+        let source = AnalyticSource::new(|p: Vec3| p.length_squared() - 0.25, |_| [0.5; 9]);
+        let mut mesh = TriMesh::new(
+            vec![
+                Vec3::new(0.52, 0.0, 0.0),
+                Vec3::new(0.0, -0.47, 0.01),
+                Vec3::new(0.3, 0.3, 0.3),
+                // Just outside the surface.
+                Vec3::new(0.0, 0.0, 0.505),
+            ],
+            vec![[0, 1, 2], [0, 2, 3]],
+        );
+        let stats = project_to_level_set(&source, &mut mesh, 6, 0.05);
+        assert_eq!(stats.vertices, 4);
+        for p in &mesh.positions {
+            assert!((p.length() - 0.5).abs() < 1e-5, "{p}");
+        }
+        assert!(stats.max_abs_sdf_before > 0.02);
+        assert!(stats.max_abs_sdf_after < 1e-5);
+        // The direction of each point is kept (radial Newton steps).
+        assert!((mesh.positions[2].normalize() - Vec3::splat(1.0).normalize()).length() < 1e-5);
+    }
+
+    #[test]
+    fn projection_respects_the_unit_sphere_clip() {
+        // A plane z = 0 clipped by the unit sphere: a point beyond the rim
+        // goes onto the sphere |p| = 1, where max(φ, |p| − 1) vanishes.
+        let source = AnalyticSource::new(|p: Vec3| p.z.abs() - 0.9, |_| [0.5; 9])
+            .with_gradient(|p: Vec3| Vec3::new(0.0, 0.0, p.z.signum()));
+        let mut mesh = TriMesh::new(
+            vec![
+                Vec3::new(0.0, 0.0, 0.95),
+                Vec3::new(0.6, 0.0, 0.9),
+                Vec3::new(0.0, 0.2, 0.89),
+            ],
+            vec![[0, 1, 2]],
+        );
+        project_to_level_set(&source, &mut mesh, 8, 0.1);
+        // (0.6, 0, 0.9) has |p| = 1.08 > 1: the clip pulls it radially in.
+        assert!(
+            (mesh.positions[1].length() - 1.0).abs() < 1e-5,
+            "{}",
+            mesh.positions[1]
+        );
+        assert!((mesh.positions[0].z - 0.9).abs() < 1e-5);
+        assert!((mesh.positions[2].z - 0.9).abs() < 1e-5);
+    }
+}
