@@ -31,11 +31,14 @@ fn list_names_the_scenes_default_first() {
 #[test]
 fn every_scene_synthesizes_and_info_reads_it() {
     let dir = tempfile::tempdir().unwrap();
-    for name in scene_names() {
+    for (i, name) in scene_names().into_iter().enumerate() {
         let out = dir.path().join(&name);
+        // the default scene with the default cap, the others in full HDR
+        let cap = if i == 0 { "1" } else { "none" };
         let status = wildlight()
             .args(["synth", "--scene", &name, "--out"])
             .arg(&out)
+            .args(["--saturation", cap])
             .args([
                 "--views",
                 "4",
@@ -79,6 +82,18 @@ fn every_scene_synthesizes_and_info_reads_it() {
         );
         let text = String::from_utf8_lossy(&info.stdout);
         assert!(text.contains('4'), "info output: {text}");
+        let data = wildlight_data::Dataset::load(&out, &wildlight_data::LoadOptions::default())
+            .expect("the capture loads");
+        let expected = (i == 0).then_some(wildlight_synth::DEFAULT_SATURATION as f32);
+        assert_eq!(data.saturation, expected, "{name}: max_intensity");
+        let peak = data
+            .views
+            .iter()
+            .map(|v| v.image.max_value())
+            .fold(0.0, f32::max);
+        if i == 0 {
+            assert!(peak <= 1.0, "{name}: pixels above the cap: {peak}");
+        }
     }
 }
 
@@ -101,6 +116,13 @@ fn bad_input_is_reported() {
         .unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("missing.ply"));
+    let out = wildlight()
+        .args(["synth", "--scene", "kettle", "--saturation", "0", "--out"])
+        .arg(dir.path().join("z"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("'0' is not a positive number"));
 }
 
 #[test]

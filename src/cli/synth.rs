@@ -88,10 +88,11 @@ pub struct Args {
     /// Sensor noise: Gaussian, standard deviation NOISE·sqrt(value + 0.01) per channel (0 = off).
     #[arg(long, default_value_t = 0.0)]
     pub noise: f64,
-    /// Clip images at this saturation cap and write it as max_intensity
-    /// [default: none: no clipping].
-    #[arg(long, value_name = "CAP")]
-    pub saturation: Option<f64>,
+    /// Clip images at this saturation cap and write it as max_intensity, like a camera's white
+    /// point (only specular highlights clip at the default exposure); `none` keeps the full HDR
+    /// range.
+    #[arg(long, value_name = "CAP|none", default_value = "1", value_parser = parse_cap)]
+    pub saturation: Cap,
     /// Clearcoat Fresnel F_c of the material model (SPEC §8: 0.2 appendix, 0.04 reference code).
     #[arg(long, default_value_t = 0.2)]
     pub clearcoat_fresnel: f64,
@@ -171,7 +172,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         env_strength: args.env_strength,
         mesh_resolution: args.mesh_resolution,
         noise: args.noise,
-        saturation: args.saturation,
+        saturation: args.saturation.0,
         brdf: BrdfSettings {
             clearcoat_fresnel: args.clearcoat_fresnel,
         },
@@ -192,4 +193,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         start.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+/// A saturation cap, or none.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cap(pub Option<f64>);
+
+/// Parses `--saturation`: a positive number or `none`.
+fn parse_cap(text: &str) -> Result<Cap, String> {
+    if text.trim().eq_ignore_ascii_case("none") {
+        return Ok(Cap(None));
+    }
+    match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(Cap(Some(v))),
+        _ => Err(format!("'{text}' is not a positive number or 'none'")),
+    }
 }

@@ -56,7 +56,8 @@ pub struct SynthOptions {
     pub mesh_resolution: usize,
     /// Sensor noise level (0 = off), see [`ShadingSettings::noise`].
     pub noise: f64,
-    /// Saturation cap, written as `max_intensity` (None = none).
+    /// Saturation cap, written as `max_intensity` (None = none, full HDR).
+    /// The default, [`DEFAULT_SATURATION`], clips like a well-exposed photo.
     pub saturation: Option<f64>,
     /// Material model settings.
     pub brdf: BrdfSettings,
@@ -67,6 +68,13 @@ pub struct SynthOptions {
     /// Show a progress bar on stderr (only drawn on a terminal).
     pub progress: bool,
 }
+
+/// The default saturation cap: a camera's white point at the default
+/// exposure. Under it lie the ambient image and the diffuse part of the flash
+/// reflection; only specular highlights (under 1 % of the object's pixels in
+/// the default scene) clip, as they do in a well-exposed 8-bit photo. This is
+/// also the peak of the image metrics.
+pub const DEFAULT_SATURATION: f64 = 1.0;
 
 impl Default for SynthOptions {
     fn default() -> Self {
@@ -79,7 +87,7 @@ impl Default for SynthOptions {
             env_strength: 1.0,
             mesh_resolution: 160,
             noise: 0.0,
-            saturation: None,
+            saturation: Some(DEFAULT_SATURATION),
             brdf: BrdfSettings::default(),
             out: PathBuf::from("capture"),
             overwrite: false,

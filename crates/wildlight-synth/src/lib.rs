@@ -32,7 +32,9 @@ pub mod rig;
 pub mod scenes;
 pub mod sdf;
 
-pub use capture::{CaptureSummary, SceneSource, SynthOptions, scene_mesh, synthesize};
+pub use capture::{
+    CaptureSummary, DEFAULT_SATURATION, SceneSource, SynthOptions, scene_mesh, synthesize,
+};
 pub use env_map::EnvMap;
 pub use error::SynthError;
 pub use ground_truth::{GroundTruthMaterial, MaterialDefinition};

@@ -164,6 +164,18 @@ pub struct ModelConfig {
     pub init_log_gain: f32,
     /// Material model settings (clearcoat Fresnel).
     pub brdf: BrdfSettings,
+    /// The material parameters Θ the field starts at, in SPEC §3 order
+    /// (base colour RGB, roughness, clearcoat gloss, subsurface, metallic,
+    /// dielectric, clearcoat), each in (0, 1): the output bias of the
+    /// material network is set to their logits. Starting metallic,
+    /// subsurface and clearcoat low encodes the prior that most surfaces are
+    /// plain dielectrics; the flash photos must then earn the other lobes.
+    pub init_material: [f32; 9],
+    /// Whether the colour loss of the ambient term also trains the material
+    /// field through the ambient network's Θ input. Off, Θ is explained by
+    /// the flash term alone (SPEC §2 gives the ambient field Θ as an input;
+    /// it says nothing about its gradient).
+    pub ambient_trains_material: bool,
 }
 
 impl Default for ModelConfig {
@@ -198,6 +210,8 @@ impl Default for ModelConfig {
             init_sharpness: 0.3,
             init_log_gain: 0.0,
             brdf: BrdfSettings::default(),
+            init_material: [0.5, 0.5, 0.5, 0.5, 0.5, 0.05, 0.05, 0.5, 0.05],
+            ambient_trains_material: true,
         }
     }
 }
@@ -330,6 +344,14 @@ impl TrainConfig {
             if !(v.is_finite() && v >= 0.0) {
                 return bad(name, "must be finite and ≥ 0");
             }
+        }
+        if self
+            .model
+            .init_material
+            .iter()
+            .any(|v| !(*v > 0.0 && *v < 1.0))
+        {
+            return bad("model.init_material", "every value must be in (0, 1)");
         }
         if self.sampling.grid_refresh_every == 0 {
             return bad("sampling.grid_refresh_every", "must be at least 1");

@@ -71,6 +71,32 @@ impl<T: Float> ModelGrads<T> {
     }
 }
 
+/// The logit of a probability, the inverse of the sigmoid.
+fn logit(p: f32) -> f64 {
+    let p = (p as f64).clamp(1e-4, 1.0 - 1e-4);
+    (p / (1.0 - p)).ln()
+}
+
+/// Sets the bias of a field's output layer (so a sigmoid output starts at
+/// chosen values wherever the hidden layer is near zero).
+fn set_output_bias<T: Float>(field: &mut NeuralField<T>, bias: &[f64]) -> anyhow::Result<()> {
+    let layer = *field
+        .mlp
+        .layers()
+        .last()
+        .expect("an MLP has an output layer");
+    anyhow::ensure!(
+        layer.n_out == bias.len(),
+        "the output layer has {} values, the prior {}",
+        layer.n_out,
+        bias.len()
+    );
+    for (j, b) in bias.iter().enumerate() {
+        field.mlp.params[layer.bias_offset + j] = T::from_f64(*b);
+    }
+    Ok(())
+}
+
 impl<T: Float> Model<T> {
     /// A freshly initialised model (the SDF starts as a sphere).
     pub fn new(config: &ModelConfig, seed: u64) -> anyhow::Result<Self> {
@@ -88,6 +114,8 @@ impl<T: Float> Model<T> {
             },
             seed.wrapping_add(1),
         )?;
+        let mut material = material;
+        set_output_bias(&mut material, &config.init_material.map(logit))?;
         let ambient = NeuralField::new(
             &NeuralFieldConfig {
                 grid: config.ambient.grid(),

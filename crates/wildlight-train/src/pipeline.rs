@@ -85,6 +85,9 @@ pub struct PassSettings {
     pub jitter_seed: Option<u64>,
     /// Whether a backward pass follows (keeps the BRDF Jacobians).
     pub for_backward: bool,
+    /// The ε of the NeuS alpha (SPEC §2: 1e-5, [`wildlight_render::neus::ALPHA_EPS`]);
+    /// comparisons between samplers set it to 0 (see [`NeusSettings::alpha_eps`]).
+    pub alpha_eps: f64,
 }
 
 /// Buffers and results of a pass.
@@ -221,7 +224,7 @@ impl<T: Float + Default> Pipeline<T> {
         // NeuS weights (SPEC §2).
         let neus = NeusSettings {
             cos_anneal_ratio: settings.cos_anneal_ratio,
-            ..NeusSettings::default()
+            alpha_eps: settings.alpha_eps,
         };
         self.weights.forward(
             &neus_inputs(&self.samples, ctx, rays),
@@ -402,9 +405,11 @@ impl<T: Float + Default> Pipeline<T> {
             for a in 0..3 {
                 self.d_grad[k][a] += (dn[a] - nrm[a] * proj) / len;
             }
-            let theta_col = nf + 3 + SH_DEG4_LEN;
-            for j in 0..PARAM_COUNT {
-                self.d_theta[k][j] += row[theta_col + j];
+            if model.config.ambient_trains_material {
+                let theta_col = nf + 3 + SH_DEG4_LEN;
+                for j in 0..PARAM_COUNT {
+                    self.d_theta[k][j] += row[theta_col + j];
+                }
             }
         }
 
@@ -422,7 +427,7 @@ impl<T: Float + Default> Pipeline<T> {
         self.d_sdf.resize(n_points, T::ZERO);
         let neus = NeusSettings {
             cos_anneal_ratio: settings.cos_anneal_ratio,
-            ..NeusSettings::default()
+            alpha_eps: settings.alpha_eps,
         };
         let d_v = self.weights.backward(
             &neus_inputs(&self.samples, ctx, rays),

@@ -68,6 +68,7 @@ pub fn render_view(
         cos_anneal_ratio: 1.0,
         jitter_seed: None,
         for_backward: false,
+        alpha_eps: wildlight_render::neus::ALPHA_EPS,
     };
     let (mut origins, mut dirs) = (Vec::new(), Vec::new());
     for start in (0..n).step_by(RENDER_CHUNK) {

@@ -183,6 +183,8 @@ pub fn train(opts: &RunOptions) -> anyhow::Result<RunSummary> {
 
     let start = Instant::now();
     let first_step = trainer.step;
+    /// Steps timed before a time budget's step count is estimated.
+    const PLAN_AFTER_STEPS: u64 = 20;
     let bar = if opts.progress {
         let b = ProgressBar::new(config.iters);
         b.set_style(
@@ -204,6 +206,17 @@ pub fn train(opts: &RunOptions) -> anyhow::Result<RunSummary> {
         }
         let stats = trainer.step();
         let done = trainer.step;
+        if let Some(budget) = opts.time_budget {
+            // Fit the learning-rate decay to the steps the budget allows at
+            // the speed measured so far, so it ends decayed when time is up.
+            let elapsed = start.elapsed().as_secs_f64();
+            if done - first_step >= PLAN_AFTER_STEPS && elapsed > 0.0 {
+                let rate = (done - first_step) as f64 / elapsed;
+                let planned = first_step as f64 + rate * budget.as_secs_f64();
+                trainer.plan_total_steps(planned as u64);
+                bar.set_length(trainer.planned_total_steps());
+            }
+        }
         if done.is_multiple_of(config.output.log_every) || done == config.iters {
             let elapsed = start.elapsed().as_secs_f64();
             let rays_per_s = (done - first_step) as f64 * config.batch_rays as f64 / elapsed;

@@ -170,6 +170,24 @@ impl Trainer {
         Ok(t)
     }
 
+    /// Sets the step at which the learning rate reaches its final factor
+    /// (the cosine decay's length), e.g. from the steps a time budget is
+    /// expected to allow. It never exceeds the configured `iters`.
+    pub fn plan_total_steps(&mut self, total: u64) {
+        let total = total.clamp(1, self.config.iters);
+        if let Decay::Cosine { total_steps, .. } = &mut self.schedule.decay {
+            *total_steps = total;
+        }
+    }
+
+    /// The step at which the learning rate reaches its final factor.
+    pub fn planned_total_steps(&self) -> u64 {
+        match self.schedule.decay {
+            Decay::Cosine { total_steps, .. } => total_steps,
+            _ => self.config.iters,
+        }
+    }
+
     /// The training rays.
     pub fn rays(&self) -> &TrainingRays {
         &self.rays
@@ -240,6 +258,7 @@ impl Trainer {
             cos_anneal_ratio: cos_anneal_ratio(step, self.config.optim.cos_anneal_steps),
             jitter_seed: Some(mix(self.config.seed, step, 2)),
             for_backward: true,
+            alpha_eps: wildlight_render::neus::ALPHA_EPS,
         };
         let rays = RayInputs {
             origins: &self.batch.origins,
@@ -352,6 +371,10 @@ impl Trainer {
         w.set_metadata("step", &self.step.to_string());
         w.set_metadata("lr_scale", &format!("{:e}", self.lr_scale));
         w.set_metadata("skipped_steps", &self.skipped_steps.to_string());
+        w.set_metadata(
+            "planned_total_steps",
+            &self.planned_total_steps().to_string(),
+        );
         w.save(path)
             .with_context(|| format!("cannot write the checkpoint {}", path.display()))
     }
@@ -371,6 +394,10 @@ impl Trainer {
         self.step = meta("step")?.parse().context("step")?;
         self.lr_scale = meta("lr_scale")?.parse().context("lr_scale")?;
         self.skipped_steps = meta("skipped_steps")?.parse().context("skipped_steps")?;
+        // absent in checkpoints of older versions: keep the configured length
+        if let Some(total) = ck.metadata("planned_total_steps") {
+            self.plan_total_steps(total.parse().context("planned_total_steps")?);
+        }
         self.apply_step_schedule();
         // The occupancy grid as it was (measured at the last refresh step,
         // from the field of that time), so that the run continues exactly.

@@ -68,6 +68,7 @@ fn setup() -> Setup {
             cos_anneal_ratio: 0.6,
             jitter_seed: None,
             for_backward: true,
+            alpha_eps: wildlight_render::neus::ALPHA_EPS,
         },
     }
 }

@@ -143,3 +143,42 @@ fn resumed_training_continues_exactly() {
         assert_ne!(fresh.model.sdf.field.mlp.params, a.sdf.field.mlp.params);
     });
 }
+
+/// A non-finite loss skips the update, halves the learning rate, leaves
+/// every parameter as it was, and no checkpoint can be written from a
+/// model holding a NaN.
+#[test]
+fn a_non_finite_step_is_skipped_and_never_checkpointed() {
+    let dir = tempfile::tempdir().unwrap();
+    let dataset = capture(dir.path(), 6, 24);
+    let mut config = small_config(4);
+    config.batch_rays = 96;
+    let mut trainer = Trainer::new(config, TrainingRays::new(&dataset)).unwrap();
+    let first = trainer.step();
+    assert!(!first.skipped && first.loss.is_finite());
+    // poison one weight of the ambient network's output layer
+    let poisoned = trainer.model.ambient.mlp.params.len() - 1;
+    trainer.model.ambient.mlp.params[poisoned] = f32::NAN;
+    let sdf_before = trainer.model.sdf.field.grid.params.clone();
+    let material_before = trainer.model.material.mlp.params.clone();
+    let gain_before = trainer.model.log_gain;
+    let scale_before = trainer.lr_scale;
+    let st = trainer.step();
+    assert!(st.skipped, "a NaN loss must skip the step");
+    assert!(!st.loss.is_finite());
+    assert_eq!(trainer.skipped_steps, 1);
+    assert_eq!(trainer.lr_scale, 0.5 * scale_before);
+    assert_eq!(trainer.model.sdf.field.grid.params, sdf_before);
+    assert_eq!(trainer.model.material.mlp.params, material_before);
+    assert_eq!(trainer.model.log_gain.to_bits(), gain_before.to_bits());
+    let ckpt = dir.path().join("poisoned.safetensors");
+    let err = trainer.save_checkpoint(&ckpt).unwrap_err();
+    assert!(format!("{err:#}").contains("non-finite"), "{err:#}");
+    assert!(!ckpt.exists(), "nothing may be written");
+    // a repaired model trains on with the lowered rate
+    trainer.model.ambient.mlp.params[poisoned] = 0.0;
+    let st = trainer.step();
+    assert!(!st.skipped && st.loss.is_finite());
+    trainer.save_checkpoint(&ckpt).unwrap();
+    assert!(ckpt.is_file());
+}
