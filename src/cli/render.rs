@@ -360,6 +360,7 @@ fn render_asset(asset_path: PathBuf, args: &Args) -> anyhow::Result<()> {
     std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
     let bar = progress_bar(args, chosen.len());
     let mut records = Vec::with_capacity(chosen.len());
+    let mut surface_pixels = 0usize;
     for camera in &chosen {
         let energy = views.energy(args.flash, camera);
         let view = tracer.render_view(
@@ -369,6 +370,7 @@ fn render_asset(asset_path: PathBuf, args: &Args) -> anyhow::Result<()> {
             camera.index,
             &lighting,
         );
+        surface_pixels += view.hit.iter().filter(|h| **h).count();
         write_view_maps(
             &out,
             camera.index,
@@ -389,6 +391,11 @@ fn render_asset(asset_path: PathBuf, args: &Args) -> anyhow::Result<()> {
     )
     .with_context(|| format!("cannot write {}", path.display()))?;
     bar.finish_and_clear();
+    if surface_pixels == 0 {
+        eprintln!(
+            "warning: no view sees the asset; is --asset-frame right (world for a default export, normalized for --normalized)?"
+        );
+    }
     eprintln!("rendered {} views into {}", records.len(), out.display());
     Ok(())
 }
