@@ -97,9 +97,10 @@ pub struct Args {
     /// flash energy.
     #[arg(long, default_value_t = 1.0)]
     pub flash_gain: f32,
-    /// Asset only: the frame of the asset's vertices.
-    #[arg(long, value_enum, default_value_t = AssetFrame::World)]
-    pub asset_frame: AssetFrame,
+    /// Asset only: the frame of the asset's vertices [default: as recorded
+    /// in the file by `wildlight export`, else world].
+    #[arg(long, value_enum)]
+    pub asset_frame: Option<AssetFrame>,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -333,7 +334,11 @@ fn render_asset(asset_path: PathBuf, args: &Args) -> anyhow::Result<()> {
         .first()
         .map(|c| c.scale_mat.as_mat4())
         .with_context(|| format!("{} has no cameras", views.split_dir.display()))?;
-    let to_normalized = match args.asset_frame {
+    let recorded = asset.frame.map(|f| match f {
+        wildlight_export::AssetFrame::World => AssetFrame::World,
+        wildlight_export::AssetFrame::Normalized => AssetFrame::Normalized,
+    });
+    let to_normalized = match args.asset_frame.or(recorded).unwrap_or(AssetFrame::World) {
         AssetFrame::World => scale_mat.inverse(),
         AssetFrame::Normalized => Mat4::IDENTITY,
     };

@@ -24,6 +24,28 @@ pub struct Asset {
     pub mesh: TexturedMesh,
     /// The maps.
     pub textures: MaterialTextures,
+    /// The frame of the mesh's vertices, recorded in the .glb's
+    /// `asset.extras.wildlight.frame` (None: not recorded).
+    pub frame: Option<AssetFrame>,
+}
+
+/// The frame an asset's vertices are in (SPEC §5, §9).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AssetFrame {
+    /// World units: x_world = scale_mat · x_normalized (the default export).
+    World,
+    /// The normalized frame (object inside the unit sphere).
+    Normalized,
+}
+
+impl AssetFrame {
+    /// The name written to the .glb.
+    pub fn name(self) -> &'static str {
+        match self {
+            AssetFrame::World => "world",
+            AssetFrame::Normalized => "normalized",
+        }
+    }
 }
 
 const GLB_MAGIC: u32 = 0x4654_6C67; // "glTF"
@@ -117,8 +139,12 @@ pub fn encode_glb(asset: &Asset) -> Result<Vec<u8>, ExportError> {
     position_accessor["min"] = json!(lo.to_array());
     position_accessor["max"] = json!(hi.to_array());
     let tex = |i: usize| json!({"index": i});
+    let mut asset_info = json!({"version": "2.0", "generator": "wildlight export"});
+    if let Some(frame) = asset.frame {
+        asset_info["extras"] = json!({"wildlight": {"frame": frame.name()}});
+    }
     let doc = json!({
-        "asset": {"version": "2.0", "generator": "wildlight export"},
+        "asset": asset_info,
         "extensionsUsed": ["KHR_materials_clearcoat", "KHR_materials_specular"],
         "scene": 0,
         "scenes": [{"nodes": [0]}],
@@ -352,5 +378,10 @@ pub fn parse_glb(bytes: &[u8], path: &Path) -> Result<Asset, ExportError> {
                 .collect(),
         },
         textures,
+        frame: match doc["asset"]["extras"]["wildlight"]["frame"].as_str() {
+            Some("world") => Some(AssetFrame::World),
+            Some("normalized") => Some(AssetFrame::Normalized),
+            _ => None,
+        },
     })
 }

@@ -32,7 +32,7 @@ pub mod textures;
 pub use atlas::{AtlasOptions, TexturedMesh};
 pub use bake::{BakeOptions, MaterialTextures};
 pub use error::ExportError;
-pub use gltf::{Asset, read_glb, write_glb};
+pub use gltf::{Asset, AssetFrame, read_glb, write_glb};
 pub use marching::{MarchingOptions, MarchingStats, extract_surface};
 pub use pipeline::{
     ExportFiles, ExportOptions, ExportReport, Exported, export_asset, export_to_dir, write_export,

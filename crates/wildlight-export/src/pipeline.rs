@@ -11,7 +11,7 @@ use wildlight_mesh::TriMesh;
 use crate::ExportError;
 use crate::atlas::{AtlasOptions, unwrap};
 use crate::bake::{BakeOptions, bake, dilate};
-use crate::gltf::{Asset, write_glb};
+use crate::gltf::{Asset, AssetFrame, write_glb};
 use crate::marching::{MarchingOptions, MarchingStats, extract_surface};
 use crate::obj::write_obj_bundle;
 use crate::simplify::simplify;
@@ -203,7 +203,15 @@ pub fn export_asset<S: FieldSource + ?Sized>(
     lap(&mut report, "dilate");
 
     Ok(Exported {
-        asset: Asset { mesh, textures },
+        asset: Asset {
+            mesh,
+            textures,
+            frame: Some(if options.world_units {
+                AssetFrame::World
+            } else {
+                AssetFrame::Normalized
+            }),
+        },
         raw_mesh,
         report,
     })

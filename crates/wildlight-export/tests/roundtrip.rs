@@ -215,9 +215,10 @@ fn files_are_complete_and_no_temporary_file_is_left() {
         let file = line.split_whitespace().last().unwrap();
         assert!(dir.path().join(file).is_file(), "{line}");
     }
-    // The .glb reads back with the same mesh.
+    // The .glb reads back with the same mesh and its recorded frame.
     let asset = read_glb(&files.glb).unwrap();
     assert_eq!(asset.mesh, e.asset.mesh);
+    assert_eq!(asset.frame, Some(wildlight_export::AssetFrame::World));
     assert_eq!(
         (asset.textures.width, asset.textures.height),
         (e.asset.textures.width, e.asset.textures.height)
