@@ -72,6 +72,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             r.fwd_bwd_normals_points_per_s
         );
         println!(
+            "per CPU second (all threads): forward {:.0}, forward + backward {:.0} points",
+            r.fwd_points_per_cpu_s, r.fwd_bwd_points_per_cpu_s
+        );
+        println!(
             "time share: encoding {:.0}%, MLP {:.0}% (enc fwd {:.1} ms, bwd {:.1} ms; MLP fwd {:.1} ms, bwd {:.1} ms)",
             100.0 * r.encoding_share,
             100.0 * r.mlp_share,

@@ -11,6 +11,15 @@
 //! Parameter layout: one flat vector, level after level; inside a level, entry
 //! after entry, the `F` features of an entry contiguous.
 //!
+//! Forward over a batch ([`HashGrid::encode_blocks`]): level-major, every
+//! point visits level 0, then level 1, …, so that the level's table (4 MiB
+//! for 2^19 entries × 2 features in `f32`) stays in the cache while it is
+//! read; points are processed in blocks of 32 whose cells are located in
+//! struct-of-arrays form (vectorised) and whose table lines are prefetched
+//! one block ahead. Outputs go to blocks of rows of any [`BlockLayout`]
+//! (the fields use column-major chunk inputs: one level's columns of a chunk
+//! are contiguous).
+//!
 //! Backward: table gradients are accumulated level-parallel (each rayon task
 //! owns whole levels and walks all points in order), which needs no extra
 //! buffers, has no races, and is bit-identical for any thread count.

@@ -2,7 +2,9 @@
 //! backward kernels in the tiny-cuda-nn style:
 //!
 //! - [`hash_grid`]: multi-resolution hash encoding (Instant-NGP);
-//! - [`mlp`]: small MLPs on `matrixmultiply` GEMMs;
+//! - [`mlp`]: small MLPs on the column-major layer kernels of [`dense`]
+//!   (measured faster than `matrixmultiply` GEMMs on these narrow shapes,
+//!   which pay for packing every call);
 //! - [`neural_field`]: encoding + MLP with extra per-point inputs (colour,
 //!   material and ambient fields are built from it);
 //! - [`sdf_field`]: signed distance + geometry features, geometric init,
