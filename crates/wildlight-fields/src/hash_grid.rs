@@ -107,7 +107,7 @@ impl BlockLayout {
     }
     /// Offset of the last value of `rows` rows up to column `col` (inclusive).
     pub fn last_offset(&self, rows: usize, col: usize) -> usize {
-        (rows - 1) * self.row_stride + col * self.col_stride
+        rows.saturating_sub(1) * self.row_stride + col * self.col_stride
     }
 }
 
