@@ -47,7 +47,21 @@ enum Command {
     Bench(cli::bench::Args),
 }
 
+/// Restores the default action of SIGPIPE, so that `wildlight … | head`
+/// ends quietly when the reader goes away instead of panicking in `println!`
+/// (Rust ignores SIGPIPE by default).
+#[cfg(unix)]
+fn default_sigpipe() {
+    // SAFETY: called once at start-up, before any other thread exists;
+    // SIG_DFL is a valid disposition for SIGPIPE.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
 fn main() -> std::process::ExitCode {
+    #[cfg(unix)]
+    default_sigpipe();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(a) => cli::demo::run(a),

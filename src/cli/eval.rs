@@ -215,8 +215,13 @@ fn run_materials(args: MaterialsArgs) -> anyhow::Result<()> {
 
 fn materials_table(r: &MaterialEvaluation) -> String {
     let mut s = format!(
-        "materials ({:?} split, {} views, {} surface pixels)\n",
-        r.split, r.views, r.pixels
+        "materials ({} split, {} views, {} surface pixels)\n",
+        match r.split {
+            wildlight_eval::Split::Train => "train",
+            wildlight_eval::Split::Val => "val",
+        },
+        r.views,
+        r.pixels
     );
     s += &format!(
         "  base colour PSNR          {} dB\n",

@@ -111,4 +111,4 @@ pub use real::Scalar;
 pub use sampler::{
     CoarseSamples, RaySamples, Rays, Sampler, SamplerSettings, dense_samples, sphere_chord,
 };
-pub use sh::{SH_DEG4_LEN, sh_deg4};
+pub use sh::{SH_DEG4_LEN, sh_deg4, sh_deg4_jacobian};

@@ -176,6 +176,22 @@ pub struct ModelConfig {
     /// the flash term alone (SPEC §2 gives the ambient field Θ as an input;
     /// it says nothing about its gradient).
     pub ambient_trains_material: bool,
+    /// Which direction the ambient field sees in its spherical-harmonics
+    /// input.
+    pub ambient_direction: AmbientDirection,
+}
+
+/// The direction the ambient radiance field is given (SPEC §2 leaves the
+/// choice open: "view direction").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AmbientDirection {
+    /// The camera ray's direction.
+    View,
+    /// The view direction mirrored about the surface normal, ω_r = d − 2(d·n)n
+    /// (Ref-NeRF's parameterisation): reflections of the room then vary
+    /// smoothly with it, which low-order harmonics can follow.
+    Reflected,
 }
 
 impl Default for ModelConfig {
@@ -212,6 +228,7 @@ impl Default for ModelConfig {
             brdf: BrdfSettings::default(),
             init_material: [0.5, 0.5, 0.5, 0.5, 0.5, 0.05, 0.05, 0.5, 0.05],
             ambient_trains_material: true,
+            ambient_direction: AmbientDirection::Reflected,
         }
     }
 }

@@ -12,6 +12,7 @@
 //! weight) and accumulates the gradients of every model parameter.
 //! Buffers are kept between calls; nothing is allocated per sample.
 
+use crate::config::AmbientDirection;
 use crate::float::{Float, finite, max, norm3, of, to_f64};
 use crate::model::{Model, ModelGrads};
 use wildlight_fields::{FdScheme, FieldContext, NormalContext};
@@ -19,7 +20,7 @@ use wildlight_material::PARAM_COUNT;
 use wildlight_render::{
     CoarseSamples, FlashCache, FlashInputs, NeusInputs, NeusSettings, NeusWeights, OccupancyGrid,
     RaySamples, Rays, SH_DEG4_LEN, Sampler, composite, composite_backward, flash_backward,
-    flash_forward, sh_deg4,
+    flash_forward, sh_deg4, sh_deg4_jacobian,
 };
 
 /// Radius of the ball in which the eikonal term applies (SPEC §4).
@@ -130,6 +131,19 @@ pub struct Pipeline<T = f32> {
     d_sdf: Vec<T>,
     d_features: Vec<T>,
     d_ambient_extra: Vec<T>,
+}
+
+/// The direction `d` mirrored about the unit normal `n`: d − 2(d·n)n.
+#[inline]
+fn reflect<T: Float>(d: [T; 3], n: [T; 3]) -> [T; 3] {
+    let k = of::<T>(2.0) * (d[0] * n[0] + d[1] * n[1] + d[2] * n[2]);
+    [d[0] - k * n[0], d[1] - k * n[1], d[2] - k * n[2]]
+}
+
+/// The ray that sample `k` belongs to (`offsets`: 0, then each ray's end).
+#[inline]
+fn ray_of_sample(offsets: &[u32], k: usize) -> usize {
+    offsets[1..].partition_point(|&end| end as usize <= k)
 }
 
 /// Fills `out` with the SDF at `pts` (no normals, no gradients).
@@ -249,13 +263,20 @@ impl<T: Float + Default> Pipeline<T> {
         self.normals.clear();
         self.ambient_extra.clear();
         self.ambient_extra.reserve(n * ne);
+        let reflected = model.config.ambient_direction == AmbientDirection::Reflected;
         for ray in 0..rays.dirs.len() {
-            let sh: [T; SH_DEG4_LEN] = sh_deg4(rays.dirs[ray]);
+            let d = rays.dirs[ray];
+            let view_sh: [T; SH_DEG4_LEN] = sh_deg4(d);
             for k in offsets[ray] as usize..offsets[ray + 1] as usize {
                 let g = ctx.gradient[k];
                 let len = max(norm3(g), of(1e-12));
                 let nrm = [g[0] / len, g[1] / len, g[2] / len];
                 self.normals.push(nrm);
+                let sh = if reflected {
+                    sh_deg4(reflect(d, nrm))
+                } else {
+                    view_sh
+                };
                 self.ambient_extra
                     .extend_from_slice(&ctx.features[k * nf..(k + 1) * nf]);
                 self.ambient_extra.extend_from_slice(&nrm);
@@ -394,12 +415,30 @@ impl<T: Float + Default> Pipeline<T> {
         );
         self.d_features.clear();
         self.d_features.resize(n_points * nf, T::ZERO);
+        let reflected = model.config.ambient_direction == AmbientDirection::Reflected;
         for k in 0..n {
             let row = &self.d_ambient_extra[k * ne..(k + 1) * ne];
             self.d_features[k * nf..(k + 1) * nf].copy_from_slice(&row[..nf]);
             // n = ∇φ/|∇φ|: ∂L/∂∇φ = (∂L/∂n − n (n·∂L/∂n)) / |∇φ|
-            let dn = [row[nf], row[nf + 1], row[nf + 2]];
+            let mut dn = [row[nf], row[nf + 1], row[nf + 2]];
             let nrm = self.normals[k];
+            if reflected {
+                // ω_r = d − 2(d·n)n: ∂ω_r/∂n = −2 (n dᵀ + (d·n) I)
+                let d = rays.dirs[ray_of_sample(offsets, k)];
+                let jac = sh_deg4_jacobian(reflect(d, nrm));
+                let mut d_r = [T::ZERO; 3];
+                for (i, jrow) in jac.iter().enumerate() {
+                    let g = row[nf + 3 + i];
+                    for a in 0..3 {
+                        d_r[a] += g * jrow[a];
+                    }
+                }
+                let dn_dot = nrm[0] * d_r[0] + nrm[1] * d_r[1] + nrm[2] * d_r[2];
+                let d_dot_n = d[0] * nrm[0] + d[1] * nrm[1] + d[2] * nrm[2];
+                for a in 0..3 {
+                    dn[a] -= of::<T>(2.0) * (d[a] * dn_dot + d_dot_n * d_r[a]);
+                }
+            }
             let len = max(norm3(ctx.gradient[k]), of(1e-12));
             let proj = dn[0] * nrm[0] + dn[1] * nrm[1] + dn[2] * nrm[2];
             for a in 0..3 {
