@@ -182,3 +182,34 @@ fn a_non_finite_step_is_skipped_and_never_checkpointed() {
     trainer.save_checkpoint(&ckpt).unwrap();
     assert!(ckpt.is_file());
 }
+
+/// A time budget's planned step count sets where the learning-rate decay
+/// ends (never beyond `iters`), and a checkpoint keeps it.
+#[test]
+fn planned_total_steps_shape_the_decay_and_survive_a_checkpoint() {
+    let dir = tempfile::tempdir().unwrap();
+    let dataset = capture(dir.path(), 6, 24);
+    let mut config = small_config(1000);
+    config.batch_rays = 64;
+    let mut trainer = Trainer::new(config.clone(), TrainingRays::new(&dataset)).unwrap();
+    assert_eq!(trainer.planned_total_steps(), 1000);
+    trainer.plan_total_steps(5000);
+    assert_eq!(trainer.planned_total_steps(), 1000, "clamped to iters");
+    trainer.plan_total_steps(12);
+    assert_eq!(trainer.planned_total_steps(), 12);
+    let mut last = None;
+    for _ in 0..14 {
+        last = Some(trainer.step());
+    }
+    // past the planned end the factor stays at the configured final value
+    let factor = last.unwrap().lr_factor;
+    assert!(
+        (factor - config.optim.final_lr_factor).abs() < 1e-9,
+        "lr factor {factor}"
+    );
+    let ckpt = dir.path().join("planned.safetensors");
+    trainer.save_checkpoint(&ckpt).unwrap();
+    let mut resumed = Trainer::new(config, TrainingRays::new(&dataset)).unwrap();
+    resumed.load_checkpoint(&ckpt).unwrap();
+    assert_eq!(resumed.planned_total_steps(), 12);
+}
