@@ -216,10 +216,7 @@ fn run_materials(args: MaterialsArgs) -> anyhow::Result<()> {
 fn materials_table(r: &MaterialEvaluation) -> String {
     let mut s = format!(
         "materials ({} split, {} views, {} surface pixels)\n",
-        match r.split {
-            wildlight_eval::Split::Train => "train",
-            wildlight_eval::Split::Val => "val",
-        },
+        r.split.name(),
         r.views,
         r.pixels
     );

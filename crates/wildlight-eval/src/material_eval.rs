@@ -43,6 +43,14 @@ pub enum Split {
 }
 
 impl Split {
+    /// The split's name, as in JSON and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Split::Train => "train",
+            Split::Val => "val",
+        }
+    }
+
     /// The folder of this split inside the dataset folder.
     pub fn folder(self, dataset: &Path) -> PathBuf {
         match self {

@@ -24,10 +24,16 @@ pub fn of<T: Float>(v: f64) -> T {
     wildlight_fields::Real::from_f64(v)
 }
 
+/// a·b.
+#[inline(always)]
+pub fn dot3<T: Float>(a: [T; 3], b: [T; 3]) -> T {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
 /// |v|.
 #[inline(always)]
 pub fn norm3<T: Float>(v: [T; 3]) -> T {
-    sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    sqrt(dot3(v, v))
 }
 
 /// Whether `v` is neither infinite nor NaN.

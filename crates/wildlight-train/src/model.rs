@@ -101,7 +101,7 @@ impl<T: Float> Model<T> {
     /// A freshly initialised model (the SDF starts as a sphere).
     pub fn new(config: &ModelConfig, seed: u64) -> anyhow::Result<Self> {
         let sdf = SdfField::new(&config.sdf_field(), seed)?;
-        let material = NeuralField::new(
+        let mut material = NeuralField::new(
             &NeuralFieldConfig {
                 grid: config.material.grid(),
                 bound: 1.0,
@@ -114,7 +114,6 @@ impl<T: Float> Model<T> {
             },
             seed.wrapping_add(1),
         )?;
-        let mut material = material;
         set_output_bias(&mut material, &config.init_material.map(logit))?;
         let ambient = NeuralField::new(
             &NeuralFieldConfig {

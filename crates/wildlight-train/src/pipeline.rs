@@ -13,7 +13,7 @@
 //! Buffers are kept between calls; nothing is allocated per sample.
 
 use crate::config::AmbientDirection;
-use crate::float::{Float, finite, max, norm3, of, to_f64};
+use crate::float::{Float, dot3, finite, max, norm3, of, to_f64};
 use crate::model::{Model, ModelGrads};
 use wildlight_fields::{FdScheme, FieldContext, NormalContext};
 use wildlight_material::PARAM_COUNT;
@@ -136,14 +136,8 @@ pub struct Pipeline<T = f32> {
 /// The direction `d` mirrored about the unit normal `n`: d − 2(d·n)n.
 #[inline]
 fn reflect<T: Float>(d: [T; 3], n: [T; 3]) -> [T; 3] {
-    let k = of::<T>(2.0) * (d[0] * n[0] + d[1] * n[1] + d[2] * n[2]);
+    let k = of::<T>(2.0) * dot3(d, n);
     [d[0] - k * n[0], d[1] - k * n[1], d[2] - k * n[2]]
-}
-
-/// The ray that sample `k` belongs to (`offsets`: 0, then each ray's end).
-#[inline]
-fn ray_of_sample(offsets: &[u32], k: usize) -> usize {
-    offsets[1..].partition_point(|&end| end as usize <= k)
 }
 
 /// Fills `out` with the SDF at `pts` (no normals, no gradients).
@@ -266,17 +260,13 @@ impl<T: Float + Default> Pipeline<T> {
         let reflected = model.config.ambient_direction == AmbientDirection::Reflected;
         for ray in 0..rays.dirs.len() {
             let d = rays.dirs[ray];
-            let view_sh: [T; SH_DEG4_LEN] = sh_deg4(d);
+            let view_sh: Option<[T; SH_DEG4_LEN]> = (!reflected).then(|| sh_deg4(d));
             for k in offsets[ray] as usize..offsets[ray + 1] as usize {
                 let g = ctx.gradient[k];
                 let len = max(norm3(g), of(1e-12));
                 let nrm = [g[0] / len, g[1] / len, g[2] / len];
                 self.normals.push(nrm);
-                let sh = if reflected {
-                    sh_deg4(reflect(d, nrm))
-                } else {
-                    view_sh
-                };
+                let sh = view_sh.unwrap_or_else(|| sh_deg4(reflect(d, nrm)));
                 self.ambient_extra
                     .extend_from_slice(&ctx.features[k * nf..(k + 1) * nf]);
                 self.ambient_extra.extend_from_slice(&nrm);
@@ -416,38 +406,38 @@ impl<T: Float + Default> Pipeline<T> {
         self.d_features.clear();
         self.d_features.resize(n_points * nf, T::ZERO);
         let reflected = model.config.ambient_direction == AmbientDirection::Reflected;
-        for k in 0..n {
-            let row = &self.d_ambient_extra[k * ne..(k + 1) * ne];
-            self.d_features[k * nf..(k + 1) * nf].copy_from_slice(&row[..nf]);
-            // n = ∇φ/|∇φ|: ∂L/∂∇φ = (∂L/∂n − n (n·∂L/∂n)) / |∇φ|
-            let mut dn = [row[nf], row[nf + 1], row[nf + 2]];
-            let nrm = self.normals[k];
-            if reflected {
-                // ω_r = d − 2(d·n)n: ∂ω_r/∂n = −2 (n dᵀ + (d·n) I)
-                let d = rays.dirs[ray_of_sample(offsets, k)];
-                let jac = sh_deg4_jacobian(reflect(d, nrm));
-                let mut d_r = [T::ZERO; 3];
-                for (i, jrow) in jac.iter().enumerate() {
-                    let g = row[nf + 3 + i];
+        for (ray, &d) in rays.dirs.iter().enumerate() {
+            for k in offsets[ray] as usize..offsets[ray + 1] as usize {
+                let row = &self.d_ambient_extra[k * ne..(k + 1) * ne];
+                self.d_features[k * nf..(k + 1) * nf].copy_from_slice(&row[..nf]);
+                // n = ∇φ/|∇φ|: ∂L/∂∇φ = (∂L/∂n − n (n·∂L/∂n)) / |∇φ|
+                let mut dn = [row[nf], row[nf + 1], row[nf + 2]];
+                let nrm = self.normals[k];
+                if reflected {
+                    // ω_r = d − 2(d·n)n: ∂ω_r/∂n = −2 (n dᵀ + (d·n) I)
+                    let jac = sh_deg4_jacobian(reflect(d, nrm));
+                    let mut d_r = [T::ZERO; 3];
+                    for (i, jrow) in jac.iter().enumerate() {
+                        let g = row[nf + 3 + i];
+                        for a in 0..3 {
+                            d_r[a] += g * jrow[a];
+                        }
+                    }
+                    let (dn_dot, d_dot_n) = (dot3(nrm, d_r), dot3(d, nrm));
                     for a in 0..3 {
-                        d_r[a] += g * jrow[a];
+                        dn[a] -= of::<T>(2.0) * (d[a] * dn_dot + d_dot_n * d_r[a]);
                     }
                 }
-                let dn_dot = nrm[0] * d_r[0] + nrm[1] * d_r[1] + nrm[2] * d_r[2];
-                let d_dot_n = d[0] * nrm[0] + d[1] * nrm[1] + d[2] * nrm[2];
+                let len = max(norm3(ctx.gradient[k]), of(1e-12));
+                let proj = dot3(dn, nrm);
                 for a in 0..3 {
-                    dn[a] -= of::<T>(2.0) * (d[a] * dn_dot + d_dot_n * d_r[a]);
+                    self.d_grad[k][a] += (dn[a] - nrm[a] * proj) / len;
                 }
-            }
-            let len = max(norm3(ctx.gradient[k]), of(1e-12));
-            let proj = dn[0] * nrm[0] + dn[1] * nrm[1] + dn[2] * nrm[2];
-            for a in 0..3 {
-                self.d_grad[k][a] += (dn[a] - nrm[a] * proj) / len;
-            }
-            if model.config.ambient_trains_material {
-                let theta_col = nf + 3 + SH_DEG4_LEN;
-                for j in 0..PARAM_COUNT {
-                    self.d_theta[k][j] += row[theta_col + j];
+                if model.config.ambient_trains_material {
+                    let theta_col = nf + 3 + SH_DEG4_LEN;
+                    for j in 0..PARAM_COUNT {
+                        self.d_theta[k][j] += row[theta_col + j];
+                    }
                 }
             }
         }
