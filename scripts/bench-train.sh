@@ -31,25 +31,29 @@ printf '[output]\ncheckpoint_every = 100\npreview_every = 1000\n' > "$out/bench.
   --iters 100000 --time-budget "${budget}m" &
 train_pid=$!
 start=$(date +%s)
+# snapshot DIR: the run's current checkpoint, its age and its last logged step
+snapshot() {
+  mkdir -p "$1"
+  cp "$run/config.toml" "$run/run.json" "$run/checkpoint.safetensors" "$1/"
+  echo "$(($(date +%s) - start))" > "$1/seconds"
+  tail -n 1 "$run/metrics.jsonl" > "$1/last_metrics.json"
+}
 n=0
+last=""
 while kill -0 "$train_pid" 2>/dev/null; do
   sleep 5
   now=$(date +%s)
   if [ $((now - start)) -ge $(((n + 1) * every * 60)) ] && [ -f "$run/checkpoint.safetensors" ]; then
     n=$((n + 1))
-    snap="$out/snap_$(printf %03d $((n * every)))m"
-    mkdir -p "$snap"
-    cp "$run/config.toml" "$run/run.json" "$run/checkpoint.safetensors" "$snap/"
-    echo "$((now - start))" > "$snap/seconds"
-    tail -n 1 "$run/metrics.jsonl" > "$snap/last_metrics.json"
+    last="$out/snap_$(printf %03d $((n * every)))m"
+    snapshot "$last"
   fi
 done
 wait "$train_pid"
-snap="$out/snap_final"
-mkdir -p "$snap"
-cp "$run/config.toml" "$run/run.json" "$run/checkpoint.safetensors" "$snap/"
-echo "$(($(date +%s) - start))" > "$snap/seconds"
-tail -n 1 "$run/metrics.jsonl" > "$snap/last_metrics.json"
+# the final model, unless the last timed snapshot already holds it
+if [ -z "$last" ] || ! cmp -s "$run/checkpoint.safetensors" "$last/checkpoint.safetensors"; then
+  snapshot "$out/snap_final"
+fi
 : > "$out/curve.jsonl"
 for snap in "$out"/snap_*; do
   "$W" render --run "$snap" --data "$cap" --split val --out "$snap/render-val" --quiet > "$snap/render.log" 2>&1
