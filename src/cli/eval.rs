@@ -133,10 +133,19 @@ fn run_mesh(args: MeshArgs) -> anyhow::Result<()> {
         ..SurfaceDistanceOptions::default()
     };
     let result = evaluate_meshes(&pred, &gt, views.as_deref(), &options)?;
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&result)?);
+    print_report(args.json, &result, mesh_table)
+}
+
+/// Prints `result` as one JSON object or as its table.
+fn print_report<R: serde::Serialize>(
+    json: bool,
+    result: &R,
+    table: fn(&R) -> String,
+) -> anyhow::Result<()> {
+    if json {
+        println!("{}", serde_json::to_string_pretty(result)?);
     } else {
-        print!("{}", mesh_table(&result));
+        print!("{}", table(result));
     }
     Ok(())
 }
@@ -164,12 +173,7 @@ fn mesh_table(r: &MeshEvaluation) -> String {
 
 fn run_images(args: ImagesArgs) -> anyhow::Result<()> {
     let result = evaluate_images(&args.pred, &args.gt)?;
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&result)?);
-    } else {
-        print!("{}", images_table(&result));
-    }
-    Ok(())
+    print_report(args.json, &result, images_table)
 }
 
 fn number(v: Option<f64>, digits: usize) -> String {
@@ -205,12 +209,7 @@ fn run_materials(args: MaterialsArgs) -> anyhow::Result<()> {
         None => Split::Train,
     };
     let result = evaluate_materials(&args.pred, &args.gt, split)?;
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&result)?);
-    } else {
-        print!("{}", materials_table(&result));
-    }
-    Ok(())
+    print_report(args.json, &result, materials_table)
 }
 
 fn materials_table(r: &MaterialEvaluation) -> String {
