@@ -179,6 +179,35 @@ pub struct ModelConfig {
     /// Which direction the ambient field sees in its spherical-harmonics
     /// input.
     pub ambient_direction: AmbientDirection,
+    /// How the ambient term is formed from its fields and Θ.
+    pub ambient_model: AmbientModel,
+    /// The room-reflection field E_s of [`AmbientModel::DiffuseSpecular`]
+    /// (unused by [`AmbientModel::Neural`]). Its hash grid should stay
+    /// coarse: one room is reflected by every part of the object, and a
+    /// field that could vary from one part to the next would let a dark
+    /// dielectric pass for a metal again.
+    pub ambient_specular: FieldSize,
+}
+
+/// The form of the ambient term a_k (SPEC §2 names its inputs: geometry
+/// features, normal, view direction, Θ; it leaves the form open).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AmbientModel {
+    /// One network of all the inputs gives the RGB radiance.
+    Neural,
+    /// A diffuse part and a mirrored-room part, tinted by Θ:
+    /// a = (1 − m)·base ⊙ E_d + F0 ⊙ E_s, where E_d ≥ 0 (the `ambient`
+    /// field of the features and the normal) is the irradiance the diffuse
+    /// lobe sees, E_s ≥ 0 (the `ambient_specular` field of the direction
+    /// and the roughness, on a coarse grid) is the room seen in the mirror
+    /// direction, and F0 = m·base + 0.08·(1 − m)·sp + 0.25·F_c·cc is the
+    /// normal-incidence reflectance of SPEC §3's specular lobes. The same
+    /// room is then reflected by every part of the object, so a part that
+    /// mirrors it brightly must be a metal (or coated), not a dark
+    /// dielectric: the ambient photos now constrain Θ, not just a free
+    /// network.
+    DiffuseSpecular,
 }
 
 /// The direction the ambient radiance field is given (SPEC §2 leaves the
@@ -229,6 +258,15 @@ impl Default for ModelConfig {
             init_material: [0.5, 0.5, 0.5, 0.5, 0.5, 0.05, 0.05, 0.5, 0.05],
             ambient_trains_material: true,
             ambient_direction: AmbientDirection::Reflected,
+            ambient_model: AmbientModel::Neural,
+            ambient_specular: FieldSize {
+                levels: 3,
+                features_per_level: 2,
+                log2_table_size: 12,
+                base_resolution: 2,
+                finest_resolution: 8,
+                hidden: vec![64],
+            },
         }
     }
 }

@@ -6,12 +6,14 @@
 //! - [`model`]: the fields and scalars, and their gradients;
 //! - [`rays`]: drawing training rays across all images;
 //! - [`pipeline`]: one differentiable pass over a batch of rays;
+//! - [`ambient`]: the ambient term of a pass, in its two forms;
 //! - [`loss`]: the losses of SPEC §4;
 //! - [`trainer`]: the optimisation step, checkpoints;
 //! - [`render_view`]: rendering whole views and their maps;
 //! - [`preview`]: preview images;
 //! - [`run`]: the run folder and the training loop behind `wildlight train`.
 
+pub mod ambient;
 pub mod config;
 pub mod float;
 pub mod inference;

@@ -2,18 +2,11 @@
 //! radiance field, the NeuS sharpness and the flash gain, with their
 //! gradient buffers and optimiser groups.
 
-use crate::config::ModelConfig;
+use crate::ambient::{SPECULAR_EXTRA_INPUTS, ambient_extra_inputs};
+use crate::config::{AmbientModel, FieldSize, ModelConfig};
 use crate::float::{Float, finite};
 use wildlight_fields::{Activation, FieldGrads, NeuralField, NeuralFieldConfig, SdfField};
 use wildlight_material::PARAM_COUNT;
-use wildlight_render::SH_DEG4_LEN;
-
-/// Number of extra per-point inputs of the ambient field besides its own
-/// encoding: geometry features, unit normal, SH-encoded view direction and
-/// the material parameters.
-pub fn ambient_extra_inputs(geometry_features: usize) -> usize {
-    geometry_features + 3 + SH_DEG4_LEN + PARAM_COUNT
-}
 
 /// The learned model, generic over the float type: `f32` for training and
 /// rendering, `f64` for the finite-difference checks of the whole pipeline.
@@ -25,8 +18,12 @@ pub struct Model<T = f32> {
     pub sdf: SdfField<T>,
     /// Material parameters Θ = sigmoid(outputs) (SPEC §3).
     pub material: NeuralField<T>,
-    /// Ambient radiance a ≥ 0 (softplus outputs).
+    /// Ambient radiance a ≥ 0 (softplus outputs); with
+    /// [`AmbientModel::DiffuseSpecular`], the diffuse irradiance E_d.
     pub ambient: NeuralField<T>,
+    /// The mirrored room E_s ≥ 0 of [`AmbientModel::DiffuseSpecular`]
+    /// (`None` for [`AmbientModel::Neural`]).
+    pub ambient_specular: Option<NeuralField<T>>,
     /// NeuS sharpness parameter v, s = exp(10 v).
     pub sharpness: T,
     /// Flash gain parameter g, γ = exp(g) > 0.
@@ -42,6 +39,8 @@ pub struct ModelGrads<T = f32> {
     pub material: FieldGrads<T>,
     /// Of the ambient field.
     pub ambient: FieldGrads<T>,
+    /// Of the ambient specular field, when the model has one.
+    pub ambient_specular: Option<FieldGrads<T>>,
     /// Of v.
     pub sharpness: T,
     /// Of g.
@@ -54,6 +53,9 @@ impl<T: Float> ModelGrads<T> {
         self.sdf.zero();
         self.material.zero();
         self.ambient.zero();
+        if let Some(g) = &mut self.ambient_specular {
+            g.zero();
+        }
         self.sharpness = T::ZERO;
         self.log_gain = T::ZERO;
     }
@@ -66,9 +68,32 @@ impl<T: Float> ModelGrads<T> {
         f(&self.sdf)
             && f(&self.material)
             && f(&self.ambient)
+            && self.ambient_specular.as_ref().is_none_or(f)
             && finite(self.sharpness)
             && finite(self.log_gain)
     }
+}
+
+/// A field of a hash grid and an MLP with `n_extra` extra inputs and three
+/// softplus outputs (a non-negative radiance).
+fn radiance_field<T: Float>(
+    size: &FieldSize,
+    n_extra: usize,
+    seed: u64,
+) -> anyhow::Result<NeuralField<T>> {
+    Ok(NeuralField::new(
+        &NeuralFieldConfig {
+            grid: size.grid(),
+            bound: 1.0,
+            include_position: false,
+            n_extra,
+            hidden: size.hidden.clone(),
+            hidden_activation: Activation::Relu,
+            n_output: 3,
+            output_activation: Activation::Softplus { beta: 1.0 },
+        },
+        seed,
+    )?)
 }
 
 /// The logit of a probability, the inverse of the sigmoid.
@@ -115,24 +140,25 @@ impl<T: Float> Model<T> {
             seed.wrapping_add(1),
         )?;
         set_output_bias(&mut material, &config.init_material.map(logit))?;
-        let ambient = NeuralField::new(
-            &NeuralFieldConfig {
-                grid: config.ambient.grid(),
-                bound: 1.0,
-                include_position: false,
-                n_extra: ambient_extra_inputs(config.geometry_features),
-                hidden: config.ambient.hidden.clone(),
-                hidden_activation: Activation::Relu,
-                n_output: 3,
-                output_activation: Activation::Softplus { beta: 1.0 },
-            },
+        let ambient = radiance_field(
+            &config.ambient,
+            ambient_extra_inputs(config.ambient_model, config.geometry_features),
             seed.wrapping_add(2),
         )?;
+        let ambient_specular = match config.ambient_model {
+            AmbientModel::Neural => None,
+            AmbientModel::DiffuseSpecular => Some(radiance_field(
+                &config.ambient_specular,
+                SPECULAR_EXTRA_INPUTS,
+                seed.wrapping_add(3),
+            )?),
+        };
         Ok(Self {
             config: config.clone(),
             sdf,
             material,
             ambient,
+            ambient_specular,
             sharpness: T::from_f64(config.init_sharpness as f64),
             log_gain: T::from_f64(config.init_log_gain as f64),
         })
@@ -144,6 +170,7 @@ impl<T: Float> Model<T> {
             sdf: self.sdf.new_grads(),
             material: self.material.new_grads(),
             ambient: self.ambient.new_grads(),
+            ambient_specular: self.ambient_specular.as_ref().map(|f| f.new_grads()),
             sharpness: T::ZERO,
             log_gain: T::ZERO,
         }
@@ -180,6 +207,7 @@ impl<T: Float> Model<T> {
         f(&self.sdf.field)
             && f(&self.material)
             && f(&self.ambient)
+            && self.ambient_specular.as_ref().is_none_or(f)
             && finite(self.sharpness)
             && finite(self.log_gain)
     }

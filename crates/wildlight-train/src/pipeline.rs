@@ -12,15 +12,14 @@
 //! weight) and accumulates the gradients of every model parameter.
 //! Buffers are kept between calls; nothing is allocated per sample.
 
-use crate::config::AmbientDirection;
+use crate::ambient::{AmbientInputGrads, AmbientInputs, AmbientPass};
 use crate::float::{Float, dot3, finite, max, norm3, of, to_f64};
 use crate::model::{Model, ModelGrads};
 use wildlight_fields::{FdScheme, FieldContext, NormalContext};
 use wildlight_material::PARAM_COUNT;
 use wildlight_render::{
     CoarseSamples, FlashCache, FlashInputs, NeusInputs, NeusSettings, NeusWeights, OccupancyGrid,
-    RaySamples, Rays, SH_DEG4_LEN, Sampler, composite, composite_backward, flash_backward,
-    flash_forward, sh_deg4, sh_deg4_jacobian,
+    RaySamples, Rays, Sampler, composite, composite_backward, flash_backward, flash_forward,
 };
 
 /// Radius of the ball in which the eikonal term applies (SPEC §4).
@@ -106,8 +105,7 @@ pub struct Pipeline<T = f32> {
     /// NeuS alphas, weights and Σw of the last pass.
     pub weights: NeusWeights<T>,
     material_ctx: FieldContext<T>,
-    ambient_ctx: FieldContext<T>,
-    ambient_extra: Vec<T>,
+    ambient_pass: AmbientPass<T>,
     flash_cache: FlashCache<T>,
     /// Material parameters at each sample.
     pub theta: Vec<[T; PARAM_COUNT]>,
@@ -130,14 +128,7 @@ pub struct Pipeline<T = f32> {
     d_grad: Vec<[T; 3]>,
     d_sdf: Vec<T>,
     d_features: Vec<T>,
-    d_ambient_extra: Vec<T>,
-}
-
-/// The direction `d` mirrored about the unit normal `n`: d − 2(d·n)n.
-#[inline]
-fn reflect<T: Float>(d: [T; 3], n: [T; 3]) -> [T; 3] {
-    let k = of::<T>(2.0) * dot3(d, n);
-    [d[0] - k * n[0], d[1] - k * n[1], d[2] - k * n[2]]
+    d_normal: Vec<[T; 3]>,
 }
 
 /// Fills `out` with the SDF at `pts` (no normals, no gradients).
@@ -252,39 +243,16 @@ impl<T: Float + Default> Pipeline<T> {
                 .map(|r| <[T; PARAM_COUNT]>::try_from(r).expect("9 outputs")),
         );
 
-        // Ambient radiance from [features, normal, SH(view), Θ].
-        let ne = crate::model::ambient_extra_inputs(nf);
+        // Unit normals n = ∇φ/|∇φ| and the ambient term (crate::ambient).
         self.normals.clear();
-        self.ambient_extra.clear();
-        self.ambient_extra.reserve(n * ne);
-        let reflected = model.config.ambient_direction == AmbientDirection::Reflected;
-        for ray in 0..rays.dirs.len() {
-            let d = rays.dirs[ray];
-            let view_sh: Option<[T; SH_DEG4_LEN]> = (!reflected).then(|| sh_deg4(d));
-            for k in offsets[ray] as usize..offsets[ray + 1] as usize {
-                let g = ctx.gradient[k];
-                let len = max(norm3(g), of(1e-12));
-                let nrm = [g[0] / len, g[1] / len, g[2] / len];
-                self.normals.push(nrm);
-                let sh = view_sh.unwrap_or_else(|| sh_deg4(reflect(d, nrm)));
-                self.ambient_extra
-                    .extend_from_slice(&ctx.features[k * nf..(k + 1) * nf]);
-                self.ambient_extra.extend_from_slice(&nrm);
-                self.ambient_extra.extend_from_slice(&sh);
-                self.ambient_extra.extend_from_slice(&self.theta[k]);
-            }
-        }
-        model.ambient.forward(
-            &self.samples.positions,
-            &self.ambient_extra,
-            &mut self.ambient_ctx,
-        );
-        self.ambient.clear();
-        self.ambient.extend(
-            self.ambient_ctx
-                .output()
-                .chunks_exact(3)
-                .map(|r| [r[0], r[1], r[2]]),
+        self.normals.extend(ctx.gradient[..n].iter().map(|&g| {
+            let len = max(norm3(g), of(1e-12));
+            [g[0] / len, g[1] / len, g[2] / len]
+        }));
+        self.ambient_pass.forward(
+            model,
+            &ambient_inputs(&self.samples, ctx, rays, &self.normals, &self.theta, nf),
+            &mut self.ambient,
         );
 
         // Flash term (SPEC §2).
@@ -354,7 +322,6 @@ impl<T: Float + Default> Pipeline<T> {
         let n = self.n_samples;
         let n_points = self.points.len();
         let nf = model.config.geometry_features;
-        let ne = crate::model::ambient_extra_inputs(nf);
         let offsets = &self.samples.offsets;
         let ctx = &self.normal_ctx;
 
@@ -392,53 +359,30 @@ impl<T: Float + Default> Pipeline<T> {
         );
         grads.log_gain += d_log_gain;
 
-        // Ambient field → its parameters and its inputs.
-        let d_amb: &[T] = self.d_colour_sample.as_flattened();
-        self.d_ambient_extra.clear();
-        self.d_ambient_extra.resize(n * ne, T::ZERO);
-        model.ambient.backward(
-            &mut self.ambient_ctx,
-            d_amb,
-            &mut grads.ambient,
-            Some(&mut self.d_ambient_extra),
-            None,
-        );
+        // Ambient term → its fields, the features, n and Θ.
         self.d_features.clear();
         self.d_features.resize(n_points * nf, T::ZERO);
-        let reflected = model.config.ambient_direction == AmbientDirection::Reflected;
-        for (ray, &d) in rays.dirs.iter().enumerate() {
-            for k in offsets[ray] as usize..offsets[ray + 1] as usize {
-                let row = &self.d_ambient_extra[k * ne..(k + 1) * ne];
-                self.d_features[k * nf..(k + 1) * nf].copy_from_slice(&row[..nf]);
-                // n = ∇φ/|∇φ|: ∂L/∂∇φ = (∂L/∂n − n (n·∂L/∂n)) / |∇φ|
-                let mut dn = [row[nf], row[nf + 1], row[nf + 2]];
-                let nrm = self.normals[k];
-                if reflected {
-                    // ω_r = d − 2(d·n)n: ∂ω_r/∂n = −2 (n dᵀ + (d·n) I)
-                    let jac = sh_deg4_jacobian(reflect(d, nrm));
-                    let mut d_r = [T::ZERO; 3];
-                    for (i, jrow) in jac.iter().enumerate() {
-                        let g = row[nf + 3 + i];
-                        for a in 0..3 {
-                            d_r[a] += g * jrow[a];
-                        }
-                    }
-                    let (dn_dot, d_dot_n) = (dot3(nrm, d_r), dot3(d, nrm));
-                    for a in 0..3 {
-                        dn[a] -= of::<T>(2.0) * (d[a] * dn_dot + d_dot_n * d_r[a]);
-                    }
-                }
-                let len = max(norm3(ctx.gradient[k]), of(1e-12));
-                let proj = dot3(dn, nrm);
-                for a in 0..3 {
-                    self.d_grad[k][a] += (dn[a] - nrm[a] * proj) / len;
-                }
-                if model.config.ambient_trains_material {
-                    let theta_col = nf + 3 + SH_DEG4_LEN;
-                    for j in 0..PARAM_COUNT {
-                        self.d_theta[k][j] += row[theta_col + j];
-                    }
-                }
+        self.d_normal.clear();
+        self.d_normal.resize(n, [T::ZERO; 3]);
+        self.ambient_pass.backward(
+            model,
+            &ambient_inputs(&self.samples, ctx, rays, &self.normals, &self.theta, nf),
+            &self.d_colour_sample,
+            &mut grads.ambient,
+            grads.ambient_specular.as_mut(),
+            AmbientInputGrads {
+                features: &mut self.d_features,
+                normals: &mut self.d_normal,
+                theta: &mut self.d_theta,
+            },
+        );
+        // n = ∇φ/|∇φ|: ∂L/∂∇φ = (∂L/∂n − n (n·∂L/∂n)) / |∇φ|
+        for k in 0..n {
+            let (dn, nrm) = (self.d_normal[k], self.normals[k]);
+            let len = max(norm3(ctx.gradient[k]), of(1e-12));
+            let proj = dot3(dn, nrm);
+            for a in 0..3 {
+                self.d_grad[k][a] += (dn[a] - nrm[a] * proj) / len;
             }
         }
 
@@ -507,6 +451,25 @@ fn neus_inputs<'a, T: Float>(
         sdf: &ctx.sdf[..n],
         sdf_grad: &ctx.gradient[..n],
         delta: &samples.delta,
+    }
+}
+
+/// The ambient term's view of a pass.
+fn ambient_inputs<'a, T: Float>(
+    samples: &'a Samples<T>,
+    ctx: &'a NormalContext<T>,
+    rays: &RayInputs<'a, T>,
+    normals: &'a [[T; 3]],
+    theta: &'a [[T; PARAM_COUNT]],
+    nf: usize,
+) -> AmbientInputs<'a, T> {
+    AmbientInputs {
+        offsets: &samples.offsets,
+        ray_dirs: rays.dirs,
+        positions: &samples.positions,
+        features: &ctx.features[..samples.len() * nf],
+        normals,
+        theta,
     }
 }
 

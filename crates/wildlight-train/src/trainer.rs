@@ -57,6 +57,8 @@ struct Groups {
     amb_mlp: usize,
     sharpness: usize,
     gain: usize,
+    /// The ambient specular field's grid and MLP, when the model has one.
+    amb_specular: Option<(usize, usize)>,
 }
 
 /// The state of a training run.
@@ -112,7 +114,7 @@ impl Trainer {
             eps: 1e-15,
             ..AdamConfig::default()
         };
-        let groups = Groups {
+        let mut groups = Groups {
             sdf_grid: adam.add_group("sdf.grid", model.sdf.field.grid.params.len(), grid_cfg),
             sdf_mlp: adam.add_group("sdf.mlp", model.sdf.field.mlp.params.len(), mlp_cfg),
             mat_grid: adam.add_group("material.grid", model.material.grid.params.len(), grid_cfg),
@@ -135,7 +137,14 @@ impl Trainer {
                     ..AdamConfig::default()
                 },
             ),
+            amb_specular: None,
         };
+        if let Some(f) = &model.ambient_specular {
+            groups.amb_specular = Some((
+                adam.add_group("ambient_specular.grid", f.grid.params.len(), grid_cfg),
+                adam.add_group("ambient_specular.mlp", f.mlp.params.len(), mlp_cfg),
+            ));
+        }
         let grid = OccupancyGrid::new(config.sampling.occupancy())?;
         let sampler = Sampler::new(config.sampling.sampler())?;
         let schedule = LrSchedule {
@@ -346,6 +355,14 @@ impl Trainer {
         a.step(gr.mat_mlp, &mut m.material.mlp.params, &g.material.mlp, f);
         a.step(gr.amb_grid, &mut m.ambient.grid.params, &g.ambient.grid, f);
         a.step(gr.amb_mlp, &mut m.ambient.mlp.params, &g.ambient.mlp, f);
+        if let (Some((grid, mlp)), Some(field), Some(grads)) = (
+            gr.amb_specular,
+            &mut m.ambient_specular,
+            &g.ambient_specular,
+        ) {
+            a.step(grid, &mut field.grid.params, &grads.grid, f);
+            a.step(mlp, &mut field.mlp.params, &grads.mlp, f);
+        }
         let mut v = [m.sharpness];
         a.step(gr.sharpness, &mut v, &[g.sharpness], f);
         m.sharpness = v[0];
@@ -427,6 +444,9 @@ pub fn save_model(model: &Model, w: &mut CheckpointWriter) {
     model.sdf.save_to(w, "sdf");
     model.material.save_to(w, "material");
     model.ambient.save_to(w, "ambient");
+    if let Some(f) = &model.ambient_specular {
+        f.save_to(w, "ambient_specular");
+    }
     w.add("scalars", &[2], &[model.sharpness, model.log_gain]);
 }
 
@@ -445,6 +465,10 @@ pub fn load_model(model: &mut Model, ck: &Checkpoint) -> anyhow::Result<()> {
         .ambient
         .load_from(ck, "ambient")
         .with_context(|| format!("{p}: ambient field"))?;
+    if let Some(f) = &mut model.ambient_specular {
+        f.load_from(ck, "ambient_specular")
+            .with_context(|| format!("{p}: ambient specular field"))?;
+    }
     let mut s = [0.0f32; 2];
     ck.read_into("scalars", &[2], &mut s)
         .with_context(|| format!("{p}: scalars"))?;

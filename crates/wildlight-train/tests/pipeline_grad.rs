@@ -4,7 +4,7 @@
 //! Σw, plus the eikonal term → a loss. Every parameter group of a tiny model
 //! is probed.
 
-use wildlight_train::config::{FieldSize, ModelConfig};
+use wildlight_train::config::{AmbientModel, FieldSize, ModelConfig};
 use wildlight_train::model::Model;
 use wildlight_train::pipeline::{PassSettings, Pipeline, RayInputs};
 
@@ -148,11 +148,35 @@ fn amb_grid(m: &mut Model<f64>) -> &mut Vec<f64> {
 fn amb_mlp(m: &mut Model<f64>) -> &mut Vec<f64> {
     &mut m.ambient.mlp.params
 }
+fn spec_grid(m: &mut Model<f64>) -> &mut Vec<f64> {
+    &mut m.ambient_specular.as_mut().unwrap().grid.params
+}
+fn spec_mlp(m: &mut Model<f64>) -> &mut Vec<f64> {
+    &mut m.ambient_specular.as_mut().unwrap().mlp.params
+}
 
 #[test]
 fn whole_pipeline_matches_finite_differences() {
+    check_whole_pipeline(&tiny_config());
+}
+
+/// The diffuse-specular ambient term: its two fields and the tints that
+/// carry the ambient photos' gradient to base colour, metallic, dielectric
+/// and clearcoat (with Θ starting mid-range so that every tint matters).
+#[test]
+fn whole_pipeline_with_the_diffuse_specular_ambient_matches_finite_differences() {
+    let config = ModelConfig {
+        ambient_model: AmbientModel::DiffuseSpecular,
+        ambient_specular: tiny(2, 6, 8),
+        init_material: [0.6, 0.4, 0.3, 0.5, 0.5, 0.3, 0.4, 0.5, 0.4],
+        ..tiny_config()
+    };
+    check_whole_pipeline(&config);
+}
+
+fn check_whole_pipeline(config: &ModelConfig) {
     let s = setup();
-    let mut model = Model::<f64>::new(&tiny_config(), 5).unwrap();
+    let mut model = Model::<f64>::new(config, 5).unwrap();
     // Move the material and ambient hash tables away from their tiny
     // initial values so that their gradients are not negligible.
     for (i, v) in model.material.grid.params.iter_mut().enumerate() {
@@ -163,6 +187,11 @@ fn whole_pipeline_matches_finite_differences() {
     }
     for (i, v) in model.sdf.field.grid.params.iter_mut().enumerate() {
         *v = 0.02 * ((i as f64 * 0.9).sin());
+    }
+    if let Some(f) = &mut model.ambient_specular {
+        for (i, v) in f.grid.params.iter_mut().enumerate() {
+            *v = 0.3 * ((i as f64 * 1.1).sin());
+        }
     }
     let mut grads = model.new_grads();
     let base = loss(&model, &s, Some(&mut grads));
@@ -195,6 +224,11 @@ fn whole_pipeline_matches_finite_differences() {
     probe!("material.mlp", mat_mlp, grads.material.mlp);
     probe!("ambient.grid", amb_grid, grads.ambient.grid);
     probe!("ambient.mlp", amb_mlp, grads.ambient.mlp);
+    if let Some(g) = &grads.ambient_specular {
+        probe!("ambient_specular.grid", spec_grid, g.grid);
+        probe!("ambient_specular.mlp", spec_mlp, g.mlp);
+        assert!(g.mlp.iter().any(|v| v.abs() > 1e-6));
+    }
     for (name, get) in [
         (
             "sharpness",

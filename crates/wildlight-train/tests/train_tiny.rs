@@ -4,7 +4,7 @@
 use std::path::Path;
 use wildlight_data::{Dataset, LoadOptions};
 use wildlight_synth::{RigOptions, SynthOptions, synthesize};
-use wildlight_train::config::{FieldSize, TrainConfig};
+use wildlight_train::config::{AmbientModel, FieldSize, TrainConfig};
 use wildlight_train::pipeline::eval_sdf;
 use wildlight_train::rays::TrainingRays;
 use wildlight_train::trainer::Trainer;
@@ -103,6 +103,17 @@ fn short_training_reduces_the_loss_and_fits_the_surface() {
 
 #[test]
 fn resumed_training_continues_exactly() {
+    check_resume(AmbientModel::Neural);
+}
+
+/// The diffuse-specular ambient term's second field and its optimiser
+/// state survive a checkpoint too.
+#[test]
+fn resumed_training_with_the_diffuse_specular_ambient_continues_exactly() {
+    check_resume(AmbientModel::DiffuseSpecular);
+}
+
+fn check_resume(ambient_model: AmbientModel) {
     let dir = tempfile::tempdir().unwrap();
     let dataset = capture(dir.path(), 6, 24);
     let pool = rayon::ThreadPoolBuilder::new()
@@ -113,6 +124,7 @@ fn resumed_training_continues_exactly() {
         let n = 8;
         let mut config = small_config(n);
         config.batch_rays = 96;
+        config.model.ambient_model = ambient_model;
         let mut straight = Trainer::new(config.clone(), TrainingRays::new(&dataset)).unwrap();
         for _ in 0..n {
             straight.step();
@@ -136,6 +148,17 @@ fn resumed_training_continues_exactly() {
         assert_eq!(a.sdf.field.mlp.params, b.sdf.field.mlp.params);
         assert_eq!(a.material.mlp.params, b.material.mlp.params);
         assert_eq!(a.ambient.grid.params, b.ambient.grid.params);
+        assert_eq!(a.ambient.mlp.params, b.ambient.mlp.params);
+        let specular = |m: &wildlight_train::Model| {
+            m.ambient_specular
+                .as_ref()
+                .map(|f| (f.grid.params.clone(), f.mlp.params.clone()))
+        };
+        assert_eq!(specular(a), specular(b));
+        assert_eq!(
+            specular(a).is_some(),
+            ambient_model == AmbientModel::DiffuseSpecular
+        );
         assert_eq!(a.sharpness.to_bits(), b.sharpness.to_bits());
         assert_eq!(a.log_gain.to_bits(), b.log_gain.to_bits());
         // and training did move the parameters
