@@ -15,7 +15,7 @@ use wildlight_material::BrdfSettings;
 use wildlight_render::composite::{composite, composite_backward};
 use wildlight_render::flash::{FlashCache, FlashInputs, flash_backward, flash_forward};
 use wildlight_render::neus::{NeusInputs, NeusSettings, NeusWeights};
-use wildlight_render::occupancy::{OccupancyGrid, OccupancySettings, RefreshMode};
+use wildlight_render::occupancy::RefreshMode;
 use wildlight_render::sampler::{CoarseSamples, RaySamples, Rays, Sampler, SamplerSettings};
 
 const N_PARAMS: usize = 3 + 1 + 1 + 3 + 9 + 9 + 1 + 1;
@@ -298,11 +298,7 @@ fn scene() -> Scene {
         }
     };
     let s = (10.0 * p0[V]).exp() as f32;
-    let mut grid = OccupancyGrid::new(OccupancySettings {
-        resolution: 32,
-        ..Default::default()
-    })
-    .unwrap();
+    let mut grid = common::occupancy_grid(32);
     grid.refresh(sdf, s, RefreshMode::Full);
     let mut sampler = Sampler::new(SamplerSettings {
         max_coarse: 24,

@@ -307,11 +307,7 @@ fn results_do_not_depend_on_the_thread_count() {
     let p = problem(5, &counts);
     let settings = NeusSettings::default();
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        common::on_threads(threads, || {
             let g = analytic(&p, &settings);
             (g.sdf, g.v)
         })
