@@ -11,7 +11,7 @@ use wildlight_render::flash::{FlashCache, FlashInputs, flash_backward, flash_for
 use wildlight_render::neus::{NeusInputs, NeusSettings, NeusWeights};
 use wildlight_render::occupancy::{OccupancyGrid, OccupancySettings, RefreshMode};
 use wildlight_render::real::Scalar;
-use wildlight_render::sampler::{CoarseSamples, RaySamples, Rays, Sampler, SamplerSettings};
+use wildlight_render::sampler::{RaySamples, Rays};
 
 struct Outputs {
     colour: Vec<[f64; 3]>,
@@ -124,9 +124,7 @@ fn f32_kernels_match_f64_on_a_sharp_surface() {
     let batch = torus.batch_sdf();
     let mut grid = OccupancyGrid::new(OccupancySettings::default()).unwrap();
     grid.refresh(batch, s, RefreshMode::Full);
-    let mut sampler = Sampler::new(SamplerSettings::default()).unwrap();
-    let (mut coarse, mut samples) = (CoarseSamples::default(), RaySamples::default());
-    sampler.sample(&grid, &rays, batch, s, Some(5), &mut coarse, &mut samples);
+    let samples = common::fast_samples(&grid, &rays, batch, s, Some(5));
     let v = f64::from(s).ln() / 10.0;
     let a = run::<f32>(torus, &dirs, &samples, v);
     let b = run::<f64>(torus, &dirs, &samples, v);

@@ -73,18 +73,7 @@ fn fast_sampler_matches_dense_sampling() {
         let v = s.ln() / 10.0;
         let mut grid = OccupancyGrid::new(OccupancySettings::default()).unwrap();
         grid.refresh(torus.batch_sdf(), s as f32, RefreshMode::Full);
-        let mut sampler = Sampler::new(SamplerSettings::default()).unwrap();
-        let mut coarse = CoarseSamples::default();
-        let mut fast = RaySamples::default();
-        sampler.sample(
-            &grid,
-            &rays,
-            torus.batch_sdf(),
-            s as f32,
-            None,
-            &mut coarse,
-            &mut fast,
-        );
+        let fast = common::fast_samples(&grid, &rays, torus.batch_sdf(), s as f32, None);
         let mut dense = RaySamples::default();
         dense_samples(&rays, 4000, 1.0, &mut dense);
         // ε = 0: the SPEC's ε adds ≈ ε of opacity per sample (see
@@ -259,19 +248,7 @@ fn sampling_is_deterministic_across_thread_counts() {
     grid.refresh(torus.batch_sdf(), 400.0, RefreshMode::Full);
     let run = |threads: usize| {
         common::on_threads(threads, || {
-            let mut sampler = Sampler::new(SamplerSettings::default()).unwrap();
-            let mut coarse = CoarseSamples::default();
-            let mut fast = RaySamples::default();
-            sampler.sample(
-                &grid,
-                &rays,
-                torus.batch_sdf(),
-                400.0,
-                Some(7),
-                &mut coarse,
-                &mut fast,
-            );
-            fast
+            common::fast_samples(&grid, &rays, torus.batch_sdf(), 400.0, Some(7))
         })
     };
     let (a, b) = (run(1), run(2));

@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 use wildlight_render::occupancy::{OccupancyGrid, OccupancySettings};
+use wildlight_render::sampler::{CoarseSamples, RaySamples, Rays, Sampler, SamplerSettings};
 
 /// A torus around the y axis (major radius `major`, tube radius `minor`),
 /// tilted by rotating the query point about the x axis by `tilt`.
@@ -158,4 +159,20 @@ pub fn on_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
         .build()
         .unwrap()
         .install(f)
+}
+
+/// The samples of `rays` drawn by a fresh sampler with the default settings
+/// from `grid`, the batch SDF `sdf` at sharpness `s` and the jitter seed
+/// `jitter_seed` (`None`: no jitter).
+pub fn fast_samples(
+    grid: &OccupancyGrid,
+    rays: &Rays<'_>,
+    sdf: impl FnOnce(&[[f32; 3]], &mut [f32]),
+    s: f32,
+    jitter_seed: Option<u64>,
+) -> RaySamples {
+    let mut sampler = Sampler::new(SamplerSettings::default()).unwrap();
+    let (mut coarse, mut samples) = (CoarseSamples::default(), RaySamples::default());
+    sampler.sample(grid, rays, sdf, s, jitter_seed, &mut coarse, &mut samples);
+    samples
 }
