@@ -1,9 +1,11 @@
 //! `wildlight brdf` checked from outside: an independent, literal transcription
 //! of SPEC §3 (appendix eqs. 1–15) in f64 against the command's output.
 
+mod common;
+
 use std::f64::consts::PI;
 use std::io::Write;
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 
 /// SPEC §3 written out term by term, as in the appendix, with no shared code.
 fn spec_rho(p: &[f64; 9], c: f64, fc: f64) -> [f64; 3] {
@@ -30,7 +32,7 @@ fn spec_rho(p: &[f64; 9], c: f64, fc: f64) -> [f64; 3] {
 }
 
 fn run_brdf(args: &[&str], input: &str) -> (i32, String, String) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_wildlight"))
+    let mut child = common::wildlight()
         .arg("brdf")
         .args(args)
         .stdin(Stdio::piped())

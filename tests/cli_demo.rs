@@ -2,10 +2,10 @@
 //! than those of an untrained model (a demo with no training step). Steps
 //! are counted, not timed, so the test does the same work on any machine.
 
-use std::process::Command;
+mod common;
 
 fn demo(dir: &std::path::Path, iters: &str) -> serde_json::Value {
-    let out = Command::new(env!("CARGO_BIN_EXE_wildlight"))
+    let out = common::wildlight()
         .args(["demo", "--quick", "--json", "--iters", iters, "--out"])
         .arg(dir)
         .output()

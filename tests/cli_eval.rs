@@ -1,9 +1,11 @@
 //! `wildlight eval` from the outside: the JSON interface of issue 4 for
 //! meshes, images and materials, the tables, and clear failures.
 
+mod common;
+
 use glam::{DMat4, DVec3};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 use wildlight_data::camera::intrinsics_from_fov_x;
 use wildlight_data::exr_io::write_exr_rgb;
 use wildlight_data::writer::{DatasetWriter, ViewToWrite};
@@ -16,11 +18,7 @@ fn torus(name: &str) -> PathBuf {
 }
 
 fn eval(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_wildlight"))
-        .arg("eval")
-        .args(args)
-        .output()
-        .unwrap()
+    common::wildlight().arg("eval").args(args).output().unwrap()
 }
 
 fn json(args: &[&str]) -> serde_json::Value {

@@ -2,19 +2,17 @@
 //! Mitsuba capture (an independent NeuS-format writer), the table, the
 //! warnings, and clear failures on bad input.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 fn torus() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/wildlight-data/tests/fixtures/mitsuba-torus")
 }
 
 fn info(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_wildlight"))
-        .arg("info")
-        .args(args)
-        .output()
-        .unwrap()
+    common::wildlight().arg("info").args(args).output().unwrap()
 }
 
 fn json_of(dir: &Path) -> serde_json::Value {

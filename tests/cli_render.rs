@@ -2,9 +2,11 @@
 //! capture's cameras writes every map in the run renderer's layout (which
 //! `wildlight eval images` reads), and bad input is reported clearly.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
+use std::path::{Path, PathBuf};
+
+use common::{path_arg, run};
 use glam::Vec3;
 use wildlight_data::Dataset;
 use wildlight_data::exr_io::read_exr_rgb;
@@ -15,41 +17,13 @@ use wildlight_export::{
 const RADIUS: f32 = 0.6;
 const BASE_COLOR: [f32; 3] = [0.7, 0.45, 0.2];
 
-fn wildlight(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_wildlight"))
-        .args(args)
-        .output()
-        .expect("the wildlight binary runs")
-}
-
-fn text(p: &Path) -> &str {
-    p.to_str().expect("temporary paths are UTF-8")
-}
-
 /// A tiny synthetic capture (4 training views, 32×32) and a sphere of
 /// radius 0.6 with one material exported in its world units.
 fn capture_and_asset(dir: &Path) -> (PathBuf, PathBuf) {
     let data = dir.join("capture");
-    let out = wildlight(&[
-        "synth",
-        "--scene",
-        "kettle",
-        "--out",
-        text(&data),
-        "--views",
-        "4",
-        "--val-views",
-        "1",
-        "--width",
-        "32",
-        "--height",
-        "32",
-        "--spp",
-        "4",
-        "--mesh-resolution",
-        "48",
-        "--quiet",
-    ]);
+    let out = common::tiny_synth("kettle", &data)
+        .output()
+        .expect("the wildlight binary runs");
     assert!(
         out.status.success(),
         "synth: {}",
@@ -83,12 +57,12 @@ fn asset_renders_every_map_and_eval_reads_them() {
     let dir = tempfile::tempdir().unwrap();
     let (data, glb) = capture_and_asset(dir.path());
     let render = dir.path().join("render");
-    let out = wildlight(&[
+    let out = run(&[
         "render",
         "--asset",
-        text(&glb),
+        path_arg(&glb),
         "--data",
-        text(&data),
+        path_arg(&data),
         "--split",
         "train",
         "--env",
@@ -96,7 +70,7 @@ fn asset_renders_every_map_and_eval_reads_them() {
         "--spp",
         "4",
         "--out",
-        text(&render),
+        path_arg(&render),
         "--quiet",
     ]);
     assert!(
@@ -156,13 +130,13 @@ fn asset_renders_every_map_and_eval_reads_them() {
         }
     }
     assert!(hits > 500, "{hits} surface pixels");
-    let eval = wildlight(&[
+    let eval = run(&[
         "eval",
         "images",
         "--pred",
-        text(&render),
+        path_arg(&render),
         "--gt",
-        text(&data),
+        path_arg(&data),
         "--json",
     ]);
     assert!(
@@ -179,7 +153,7 @@ fn asset_renders_every_map_and_eval_reads_them() {
 
 /// Runs `wildlight render` with `args`, expects failure, returns stderr.
 fn failure(args: &[&str]) -> String {
-    let out = wildlight(args);
+    let out = run(args);
     assert!(!out.status.success(), "{args:?} succeeded");
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
@@ -187,29 +161,29 @@ fn failure(args: &[&str]) -> String {
 #[test]
 fn bad_asset_input_is_reported() {
     let dir = tempfile::tempdir().unwrap();
-    let d = text(dir.path());
+    let d = path_arg(dir.path());
     let missing = dir.path().join("missing.glb");
     let not_glb = dir.path().join("notes.txt");
     std::fs::write(&not_glb, "hello").unwrap();
     let garbage = dir.path().join("broken.glb");
     std::fs::write(&garbage, "this is not a glb file at all").unwrap();
-    let err = failure(&["render", "--run", d, "--asset", text(&missing)]);
+    let err = failure(&["render", "--run", d, "--asset", path_arg(&missing)]);
     assert!(err.contains("cannot be used with"), "{err}");
     let err = failure(&["render"]);
     assert!(err.contains("--run") && err.contains("--asset"), "{err}");
-    let err = failure(&["render", "--asset", text(&missing), "--data", d]);
+    let err = failure(&["render", "--asset", path_arg(&missing), "--data", d]);
     assert!(
         err.contains("does not exist") && err.contains("missing.glb"),
         "{err}"
     );
-    let err = failure(&["render", "--asset", text(&not_glb), "--data", d]);
+    let err = failure(&["render", "--asset", path_arg(&not_glb), "--data", d]);
     assert!(err.contains("not a .glb file"), "{err}");
-    let err = failure(&["render", "--asset", text(&garbage), "--data", d]);
+    let err = failure(&["render", "--asset", path_arg(&garbage), "--data", d]);
     assert!(
         err.contains("broken.glb") && err.contains("not a binary glTF"),
         "{err}"
     );
-    let err = failure(&["render", "--asset", text(&garbage)]);
+    let err = failure(&["render", "--asset", path_arg(&garbage)]);
     assert!(err.contains("needs --data"), "{err}");
     let err = failure(&["render", "--run", d, "--env", "sky"]);
     assert!(err.contains("--asset"), "{err}");

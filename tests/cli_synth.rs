@@ -1,11 +1,9 @@
 //! `wildlight synth` from the command line: `--list`, and for every
 //! built-in scene a tiny capture that `wildlight info` then reads.
 
-use std::process::Command;
+mod common;
 
-fn wildlight() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_wildlight"))
-}
+use common::wildlight;
 
 fn scene_names() -> Vec<String> {
     let out = wildlight().args(["synth", "--list"]).output().unwrap();
@@ -35,21 +33,8 @@ fn every_scene_synthesizes_and_info_reads_it() {
         let out = dir.path().join(&name);
         // the default scene with the default cap, the others in full HDR
         let cap = if i == 0 { "1" } else { "none" };
-        let status = wildlight()
-            .args(["synth", "--scene", &name, "--out"])
-            .arg(&out)
+        let status = common::tiny_synth(&name, &out)
             .args(["--saturation", cap])
-            .args([
-                "--views",
-                "4",
-                "--val-views",
-                "1",
-                "--width",
-                "32",
-                "--height",
-                "32",
-            ])
-            .args(["--spp", "4", "--mesh-resolution", "48", "--quiet"])
             .output()
             .unwrap();
         assert!(

@@ -14,10 +14,9 @@ use glam::Mat4;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use wildlight_data::{Camera, Dataset};
-use wildlight_export::{AssetTracer, AssetView, FlashSettings, LightingSettings, read_glb};
+use wildlight_export::{AssetTracer, FlashSettings, LightingSettings, read_glb};
 use wildlight_synth::EnvMap;
 use wildlight_train::inference::{RenderedView, TrainedRun, render_views_to_dir, write_view_maps};
-use wildlight_train::render_view::ViewMaps;
 
 /// Which cameras to render.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -286,26 +285,6 @@ fn environment(args: &Args) -> anyhow::Result<Option<EnvMap>> {
     Ok(Some(map.scaled(args.env_strength)))
 }
 
-/// Copies an asset rendering into the run renderer's map type, so that both
-/// are written by the same code in the same layout (acc = 1 where hit).
-fn to_view_maps(view: AssetView) -> ViewMaps {
-    ViewMaps {
-        width: view.width,
-        height: view.height,
-        acc: view
-            .hit
-            .iter()
-            .map(|h| if *h { 1.0 } else { 0.0 })
-            .collect(),
-        rgb: view.rgb,
-        flash: view.flash,
-        ambient: view.ambient,
-        normal: view.normal,
-        depth: view.depth,
-        params: view.params,
-    }
-}
-
 fn render_asset(asset_path: PathBuf, args: &Args) -> anyhow::Result<()> {
     if !asset_path.is_file() {
         bail!(
@@ -375,13 +354,8 @@ fn render_asset(asset_path: PathBuf, args: &Args) -> anyhow::Result<()> {
             camera.index,
             &lighting,
         );
-        surface_pixels += view.hit.iter().filter(|h| **h).count();
-        write_view_maps(
-            &out,
-            camera.index,
-            &to_view_maps(view),
-            camera.world_scale(),
-        )?;
+        surface_pixels += view.hits().iter().filter(|h| **h).count();
+        write_view_maps(&out, camera.index, &view, camera.world_scale())?;
         records.push(RenderedView {
             index: camera.index,
             split: views.split_name,

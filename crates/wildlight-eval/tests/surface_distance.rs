@@ -1,5 +1,8 @@
 //! Appendix eq. 16 on meshes with exactly known answers.
 
+mod common;
+
+use common::merge;
 use glam::{DVec3, Mat4, Vec3};
 use wildlight_eval::shapes::{axis_box, flat_patch, icosphere};
 use wildlight_eval::{
@@ -12,15 +15,6 @@ fn options(seed: u64) -> SurfaceDistanceOptions {
         seed,
         ..SurfaceDistanceOptions::default()
     }
-}
-
-fn merge(a: &TriMesh, b: &TriMesh) -> TriMesh {
-    let offset = a.positions.len() as u32;
-    let mut m = a.clone();
-    m.positions.extend(&b.positions);
-    m.triangles
-        .extend(b.triangles.iter().map(|t| t.map(|v| v + offset)));
-    m
 }
 
 #[test]

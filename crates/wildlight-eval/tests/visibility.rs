@@ -1,18 +1,11 @@
 //! Visibility restriction: occlusion, open and inward-oriented meshes, frustum.
 
+mod common;
+
+use common::merge;
 use glam::{DMat4, DVec3, Mat4, Vec3};
 use wildlight_eval::shapes::{axis_box, flat_patch, icosphere};
 use wildlight_eval::{Frustum, Viewpoint, visible_triangles};
-use wildlight_mesh::TriMesh;
-
-fn merge(a: &TriMesh, b: &TriMesh) -> TriMesh {
-    let offset = a.positions.len() as u32;
-    let mut m = a.clone();
-    m.positions.extend(&b.positions);
-    m.triangles
-        .extend(b.triangles.iter().map(|t| t.map(|v| v + offset)));
-    m
-}
 
 #[test]
 fn open_patch_is_seen_from_behind() {

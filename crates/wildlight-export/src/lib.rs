@@ -28,6 +28,7 @@ pub mod roundtrip;
 pub mod simplify;
 pub mod source;
 pub mod textures;
+pub mod view_maps;
 
 pub use atlas::{AtlasOptions, TexturedMesh};
 pub use bake::{BakeOptions, MaterialTextures};
@@ -38,7 +39,7 @@ pub use pipeline::{
     ExportFiles, ExportOptions, ExportReport, Exported, export_asset, export_to_dir, write_export,
 };
 pub use render::{
-    AssetHit, AssetTracer, AssetView, FlashImage, FlashSettings, LightingSettings, flash_psnr,
+    AssetHit, AssetTracer, FlashImage, FlashSettings, LightingSettings, flash_psnr,
     render_source_flash,
 };
 pub use roundtrip::{
@@ -46,6 +47,7 @@ pub use roundtrip::{
     project_to_level_set,
 };
 pub use source::{AnalyticSource, FieldSource, MAX_BATCH};
+pub use view_maps::ViewMaps;
 
 use std::io::Write;
 use std::path::Path;

@@ -14,6 +14,7 @@ use wildlight_synth::bvh::Bvh;
 use wildlight_synth::{EnvMap, MaterialDefinition, RenderScene, ShadingSettings, SurfacePoint};
 
 use crate::ExportError;
+use crate::ViewMaps;
 use crate::bake::{NORMAL, from_tangent_space};
 use crate::gltf::Asset;
 use crate::source::{FieldSource, MAX_BATCH, bounded_sdf};
@@ -101,32 +102,6 @@ impl Default for LightingSettings {
             seed: 0,
         }
     }
-}
-
-/// Every per-view map of an asset rendering (row-major, `width × height`),
-/// the same kinds the run renderer writes (docs/conventions.md).
-#[derive(Clone, Debug, PartialEq)]
-pub struct AssetView {
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
-    /// Ambient + flash (the environment where nothing is hit).
-    pub rgb: Vec<[f32; 3]>,
-    /// The flash term.
-    pub flash: Vec<[f32; 3]>,
-    /// The environment light's contribution (the environment itself where
-    /// nothing is hit).
-    pub ambient: Vec<[f32; 3]>,
-    /// Unit shading normal (normalized frame), zero where nothing is hit.
-    pub normal: Vec<[f32; 3]>,
-    /// Distance along the ray to the surface (normalized units), zero where
-    /// nothing is hit.
-    pub depth: Vec<f32>,
-    /// The 9 material parameters, zero where nothing is hit.
-    pub params: Vec<[f32; PARAM_COUNT]>,
-    /// Whether each pixel's ray hit the asset.
-    pub hit: Vec<bool>,
 }
 
 /// An exported asset prepared for ray casting in the normalized frame.
@@ -268,7 +243,7 @@ impl<'a> AssetTracer<'a> {
         scale: f64,
         view: usize,
         settings: &LightingSettings,
-    ) -> AssetView {
+    ) -> ViewMaps {
         let width = ((camera.width as f64 * scale).round() as u32).max(1);
         let height = ((camera.height as f64 * scale).round() as u32).max(1);
         let (sx, sy) = (
@@ -333,25 +308,15 @@ impl<'a> AssetTracer<'a> {
                 }
             })
             .collect();
-        let mut out = AssetView {
-            width,
-            height,
-            rgb: Vec::with_capacity(pixels.len()),
-            flash: Vec::with_capacity(pixels.len()),
-            ambient: Vec::with_capacity(pixels.len()),
-            normal: Vec::with_capacity(pixels.len()),
-            depth: Vec::with_capacity(pixels.len()),
-            params: Vec::with_capacity(pixels.len()),
-            hit: Vec::with_capacity(pixels.len()),
-        };
+        let mut out = ViewMaps::with_capacity(width, height);
         for p in pixels {
             out.rgb.push([0, 1, 2].map(|c| p.ambient[c] + p.flash[c]));
             out.flash.push(p.flash);
             out.ambient.push(p.ambient);
             out.normal.push(p.normal);
             out.depth.push(p.depth);
+            out.acc.push(if p.hit { 1.0 } else { 0.0 });
             out.params.push(p.params);
-            out.hit.push(p.hit);
         }
         out
     }

@@ -382,9 +382,9 @@ fn asset_view_has_the_flash_term_and_the_synthetic_environment_light() {
     let view = tracer.render_view(camera, camera.light_energy, 1.0, camera.index, &lighting);
     // The flash map is the flash term of render_flash; depth the ray distance.
     let flash = tracer.render_flash(camera, &lighting.flash);
-    assert_eq!(view.hit, flash.hit);
-    assert!(view.hit.iter().filter(|h| **h).count() > 400);
-    for (i, hit) in view.hit.iter().enumerate() {
+    assert_eq!(view.hits(), flash.hit);
+    assert!(view.hits().iter().filter(|h| **h).count() > 400);
+    for (i, hit) in view.hits().iter().enumerate() {
         let want = &flash.image.data[i * 3..i * 3 + 3];
         assert_eq!(&view.flash[i][..], want);
         for c in 0..3 {
@@ -440,7 +440,7 @@ fn asset_view_has_the_flash_term_and_the_synthetic_environment_light() {
     let synth =
         wildlight_synth::render_view(&scene, &env, camera, 1, &settings, 2.5, &|| {}).unwrap();
     let (mut ours, mut theirs, mut n) = ([0.0f64; 3], [0.0f64; 3], 0);
-    for (i, hit) in view.hit.iter().enumerate() {
+    for (i, hit) in view.hits().iter().enumerate() {
         let (x, y) = ((i % 64) as u32, (i / 64) as u32);
         if *hit && synth.normal.get(x, y) != [0.0; 3] {
             let s = synth.ambient.get(x, y);

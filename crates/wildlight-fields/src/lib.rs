@@ -11,7 +11,6 @@
 //!   finite-difference normals differentiable w.r.t. all parameters;
 //! - [`adam`]: Adam with parameter groups and learning-rate schedules;
 //! - [`checkpoint`]: versioned safetensors checkpoints;
-//! - [`sh`]: spherical-harmonics direction encoding.
 //!
 //! Every kernel is generic over [`Real`] (`f32` for training, `f64` for
 //! gradient checks). Parallel work uses rayon over fixed chunks of
@@ -55,7 +54,8 @@
 //! ```
 //!
 //! Colour, material and ambient fields are [`NeuralField`]s with extra
-//! per-point inputs (geometry features, [`sh_encode`]d directions, normals…):
+//! per-point inputs (geometry features, directions encoded in spherical
+//! harmonics by `wildlight_render::sh_deg4`, normals…):
 //! `forward(&x, &extra, &mut ctx)`, `backward(&mut ctx, &d_out, &mut grads,
 //! Some(&mut d_extra), None)` returns the gradient w.r.t. the extras, which the
 //! caller passes on (e.g. into `d_features` of the SDF field).
@@ -76,7 +76,6 @@ pub mod mlp;
 pub mod neural_field;
 pub mod real;
 pub mod sdf_field;
-pub mod sh;
 
 pub use activation::Activation;
 pub use adam::{Adam, AdamConfig, AdamGroup, Decay, LrSchedule};
@@ -87,4 +86,3 @@ pub use mlp::{CHUNK_ROWS, Mlp, MlpChunk, MlpConfig, MlpContext, MlpScratch};
 pub use neural_field::{FieldContext, FieldGrads, NeuralField, NeuralFieldConfig};
 pub use real::Real;
 pub use sdf_field::{FdScheme, NormalContext, SdfField, SdfFieldConfig};
-pub use sh::{sh_encode, sh_len};

@@ -98,34 +98,3 @@ fn lr_schedules() {
     assert!((exp.factor(1000) - 0.01).abs() < 1e-12);
     assert_eq!(LrSchedule::constant().factor(77), 1.0);
 }
-
-#[test]
-fn sh_basis_is_orthonormal() {
-    // Quadrature over a Fibonacci sphere.
-    let n = 20_000;
-    let mut gram = [[0.0f64; 16]; 16];
-    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    for i in 0..n {
-        let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
-        let r = (1.0 - z * z).sqrt();
-        let phi = golden * i as f64;
-        let mut y = [0.0; 16];
-        sh_encode([r * phi.cos(), r * phi.sin(), z], 4, &mut y);
-        for a in 0..16 {
-            for b in 0..16 {
-                gram[a][b] += y[a] * y[b] * 4.0 * std::f64::consts::PI / n as f64;
-            }
-        }
-    }
-    for a in 0..16 {
-        for b in 0..16 {
-            let expected = if a == b { 1.0 } else { 0.0 };
-            assert!(
-                (gram[a][b] - expected).abs() < 2e-3,
-                "<Y{a}, Y{b}> = {}",
-                gram[a][b]
-            );
-        }
-    }
-    assert_eq!(sh_len(3), 9);
-}

@@ -15,7 +15,7 @@ use wildlight_material::BrdfSettings;
 use wildlight_render::composite::{composite, composite_backward};
 use wildlight_render::flash::{FlashCache, FlashInputs, flash_backward, flash_forward};
 use wildlight_render::neus::{NeusInputs, NeusSettings, NeusWeights};
-use wildlight_render::occupancy::{OccupancyGrid, OccupancySettings, RefreshMode};
+use wildlight_render::occupancy::RefreshMode;
 use wildlight_render::sampler::{CoarseSamples, RaySamples, Rays, Sampler, SamplerSettings};
 
 const N_PARAMS: usize = 3 + 1 + 1 + 3 + 9 + 9 + 1 + 1;
@@ -69,6 +69,37 @@ struct Eval {
     pos: Vec<[f64; 3]>,
 }
 
+impl Scene {
+    /// Distance t and spacing δ of each sample, in f64.
+    fn t_delta(&self) -> (Vec<f64>, Vec<f64>) {
+        let widen = |v: &[f32]| v.iter().map(|&x| f64::from(x)).collect();
+        (widen(&self.samples.t), widen(&self.samples.delta))
+    }
+}
+
+/// The NeuS kernel's inputs: the scene's samples with the field values `e`.
+fn neus_inputs<'a>(scene: &'a Scene, e: &'a Eval, delta: &'a [f64]) -> NeusInputs<'a, f64> {
+    NeusInputs {
+        offsets: &scene.samples.offsets,
+        ray_dirs: &scene.dirs,
+        sdf: &e.sdf,
+        sdf_grad: &e.grad,
+        delta,
+    }
+}
+
+/// The flash kernel's inputs: the scene's samples with the field values `e`.
+fn flash_inputs<'a>(scene: &'a Scene, e: &'a Eval, t: &'a [f64]) -> FlashInputs<'a, f64> {
+    FlashInputs {
+        offsets: &scene.samples.offsets,
+        ray_dirs: &scene.dirs,
+        light_energy: &scene.energy,
+        t,
+        sdf_grad: &e.grad,
+        params: &e.theta,
+    }
+}
+
 fn eval_field(scene: &Scene, p: &[f64; N_PARAMS]) -> Eval {
     let n = scene.samples.len();
     let sig = |x: f64| 1.0 / (1.0 + (-x).exp());
@@ -108,26 +139,12 @@ type ForwardState = (
 
 fn forward(scene: &Scene, p: &[f64; N_PARAMS]) -> ForwardState {
     let e = eval_field(scene, p);
-    let delta: Vec<f64> = scene.samples.delta.iter().map(|&x| f64::from(x)).collect();
-    let t: Vec<f64> = scene.samples.t.iter().map(|&x| f64::from(x)).collect();
+    let (t, delta) = scene.t_delta();
     let offsets = &scene.samples.offsets;
-    let ninp = NeusInputs {
-        offsets,
-        ray_dirs: &scene.dirs,
-        sdf: &e.sdf,
-        sdf_grad: &e.grad,
-        delta: &delta,
-    };
+    let ninp = neus_inputs(scene, &e, &delta);
     let mut w = NeusWeights::new();
     w.forward(&ninp, p[V], &scene.settings);
-    let finp = FlashInputs {
-        offsets,
-        ray_dirs: &scene.dirs,
-        light_energy: &scene.energy,
-        t: &t,
-        sdf_grad: &e.grad,
-        params: &e.theta,
-    };
+    let finp = flash_inputs(scene, &e, &t);
     let mut flash = vec![[0.0; 3]; t.len()];
     let mut cache = FlashCache::new();
     flash_forward(
@@ -177,16 +194,8 @@ fn analytic_grad(scene: &Scene, p: &[f64; N_PARAMS]) -> [f64; N_PARAMS] {
     let mut d_w = vec![0.0; n];
     let mut d_c = vec![[0.0; 3]; n];
     composite_backward(offsets, &w.weight, &c, &d_colour, &mut d_w, Some(&mut d_c));
-    let t: Vec<f64> = scene.samples.t.iter().map(|&x| f64::from(x)).collect();
-    let delta: Vec<f64> = scene.samples.delta.iter().map(|&x| f64::from(x)).collect();
-    let finp = FlashInputs {
-        offsets,
-        ray_dirs: &scene.dirs,
-        light_energy: &scene.energy,
-        t: &t,
-        sdf_grad: &e.grad,
-        params: &e.theta,
-    };
+    let (t, delta) = scene.t_delta();
+    let finp = flash_inputs(scene, &e, &t);
     let mut d_theta = vec![[0.0; 9]; n];
     let mut d_grad = vec![[0.0; 3]; n];
     let mut g = [0.0; N_PARAMS];
@@ -199,13 +208,7 @@ fn analytic_grad(scene: &Scene, p: &[f64; N_PARAMS]) -> [f64; N_PARAMS] {
         &mut d_theta,
         &mut d_grad,
     );
-    let ninp = NeusInputs {
-        offsets,
-        ray_dirs: &scene.dirs,
-        sdf: &e.sdf,
-        sdf_grad: &e.grad,
-        delta: &delta,
-    };
+    let ninp = neus_inputs(scene, &e, &delta);
     let mut d_sdf = vec![0.0; n];
     g[V] = w.backward(
         &ninp,
@@ -298,11 +301,7 @@ fn scene() -> Scene {
         }
     };
     let s = (10.0 * p0[V]).exp() as f32;
-    let mut grid = OccupancyGrid::new(OccupancySettings {
-        resolution: 32,
-        ..Default::default()
-    })
-    .unwrap();
+    let mut grid = common::occupancy_grid(32);
     grid.refresh(sdf, s, RefreshMode::Full);
     let mut sampler = Sampler::new(SamplerSettings {
         max_coarse: 24,

@@ -103,14 +103,21 @@ fn problem(seed: u64, counts: &[u32]) -> Problem {
     }
 }
 
+impl Problem {
+    /// The problem's samples as the kernels' inputs.
+    fn inputs(&self) -> NeusInputs<'_, f64> {
+        NeusInputs {
+            offsets: &self.offsets,
+            ray_dirs: &self.dirs,
+            sdf: &self.sdf,
+            sdf_grad: &self.grad,
+            delta: &self.delta,
+        }
+    }
+}
+
 fn loss(p: &Problem, settings: &NeusSettings) -> f64 {
-    let inputs = NeusInputs {
-        offsets: &p.offsets,
-        ray_dirs: &p.dirs,
-        sdf: &p.sdf,
-        sdf_grad: &p.grad,
-        delta: &p.delta,
-    };
+    let inputs = p.inputs();
     let mut w = NeusWeights::new();
     w.forward(&inputs, p.v, settings);
     let mut c = vec![[0.0; 3]; p.dirs.len()];
@@ -132,13 +139,7 @@ struct Grads {
 }
 
 fn analytic(p: &Problem, settings: &NeusSettings) -> Grads {
-    let inputs = NeusInputs {
-        offsets: &p.offsets,
-        ray_dirs: &p.dirs,
-        sdf: &p.sdf,
-        sdf_grad: &p.grad,
-        delta: &p.delta,
-    };
+    let inputs = p.inputs();
     let mut w = NeusWeights::new();
     w.forward(&inputs, p.v, settings);
     let n = p.sdf.len();
@@ -307,11 +308,7 @@ fn results_do_not_depend_on_the_thread_count() {
     let p = problem(5, &counts);
     let settings = NeusSettings::default();
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        common::on_threads(threads, || {
             let g = analytic(&p, &settings);
             (g.sdf, g.v)
         })

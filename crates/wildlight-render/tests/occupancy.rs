@@ -74,20 +74,8 @@ fn sphere_surface_cells_are_never_skipped_even_with_the_tightest_band() {
 #[test]
 fn torus_surface_points_lie_in_surface_cells() {
     let torus = Torus::standard();
-    let mut grid = OccupancyGrid::new(OccupancySettings {
-        resolution: 64,
-        ..Default::default()
-    })
-    .unwrap();
-    grid.refresh(
-        |p: &[[f32; 3]], out: &mut [f32]| {
-            for (o, x) in out.iter_mut().zip(p) {
-                *o = torus.eval(x.map(f64::from)).0 as f32;
-            }
-        },
-        1500.0,
-        RefreshMode::Full,
-    );
+    let mut grid = common::occupancy_grid(64);
+    grid.refresh(torus.batch_sdf(), 1500.0, RefreshMode::Full);
     let (nu, nw) = (1200, 500);
     for i in 0..nu {
         for j in 0..nw {
@@ -140,11 +128,7 @@ fn partial_refresh_follows_a_surface_that_moves_half_a_cell_per_refresh() {
 
 #[test]
 fn reclassify_widens_the_band_for_small_sharpness() {
-    let mut grid = OccupancyGrid::new(OccupancySettings {
-        resolution: 32,
-        ..Default::default()
-    })
-    .unwrap();
+    let mut grid = common::occupancy_grid(32);
     grid.refresh(sphere_sdf(0.5), 2000.0, RefreshMode::Full);
     let sharp = grid.occupied_fraction();
     grid.reclassify(20.0);
@@ -184,20 +168,8 @@ fn invalid_settings_are_rejected() {
 #[test]
 fn sampled_intervals_agree_with_point_lookups() {
     let torus = Torus::standard();
-    let mut grid = OccupancyGrid::new(OccupancySettings {
-        resolution: 64,
-        ..Default::default()
-    })
-    .unwrap();
-    grid.refresh(
-        |p: &[[f32; 3]], out: &mut [f32]| {
-            for (o, x) in out.iter_mut().zip(p) {
-                *o = torus.eval(x.map(f64::from)).0 as f32;
-            }
-        },
-        600.0,
-        RefreshMode::Full,
-    );
+    let mut grid = common::occupancy_grid(64);
+    grid.refresh(torus.batch_sdf(), 600.0, RefreshMode::Full);
     let mut rng = common::TestRng(77);
     let mut checked = 0usize;
     let mut intervals = Vec::new();

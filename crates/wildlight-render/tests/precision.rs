@@ -4,14 +4,14 @@
 
 mod common;
 
-use common::{Torus, camera_rays, colour};
+use common::{Torus, camera_rays};
 use wildlight_material::BrdfSettings;
 use wildlight_render::composite::{composite, composite_backward};
 use wildlight_render::flash::{FlashCache, FlashInputs, flash_backward, flash_forward};
 use wildlight_render::neus::{NeusInputs, NeusSettings, NeusWeights};
 use wildlight_render::occupancy::{OccupancyGrid, OccupancySettings, RefreshMode};
 use wildlight_render::real::Scalar;
-use wildlight_render::sampler::{CoarseSamples, RaySamples, Rays, Sampler, SamplerSettings};
+use wildlight_render::sampler::{RaySamples, Rays};
 
 struct Outputs {
     colour: Vec<[f64; 3]>,
@@ -26,16 +26,10 @@ struct Outputs {
 fn run<T: Scalar>(torus: Torus, dirs: &[[f32; 3]], samples: &RaySamples, v: f64) -> Outputs {
     let cast = |x: f64| T::of(x);
     let n = samples.len();
-    let mut sdf = Vec::with_capacity(n);
-    let mut grad = Vec::with_capacity(n);
-    let mut c = Vec::with_capacity(n);
-    for p in &samples.positions {
-        let p = p.map(f64::from);
-        let (f, g) = torus.eval(p);
-        sdf.push(cast(f));
-        grad.push(g.map(cast));
-        c.push(colour(p).map(|x| cast(0.3 * x)));
-    }
+    let (sdf, grad, colours) = torus.fields_at(&samples.positions);
+    let sdf: Vec<T> = sdf.into_iter().map(cast).collect();
+    let grad: Vec<[T; 3]> = grad.iter().map(|g| g.map(cast)).collect();
+    let mut c: Vec<[T; 3]> = colours.iter().map(|k| k.map(|x| cast(0.3 * x))).collect();
     let dirs: Vec<[T; 3]> = dirs.iter().map(|d| d.map(|x| cast(f64::from(x)))).collect();
     let t: Vec<T> = samples.t.iter().map(|&x| cast(f64::from(x))).collect();
     let delta: Vec<T> = samples.delta.iter().map(|&x| cast(f64::from(x))).collect();
@@ -127,16 +121,10 @@ fn f32_kernels_match_f64_on_a_sharp_surface() {
         dirs: &dirs,
     };
     let s = 3000.0f32;
-    let batch = |p: &[[f32; 3]], out: &mut [f32]| {
-        for (o, x) in out.iter_mut().zip(p) {
-            *o = torus.eval(x.map(f64::from)).0 as f32;
-        }
-    };
+    let batch = torus.batch_sdf();
     let mut grid = OccupancyGrid::new(OccupancySettings::default()).unwrap();
     grid.refresh(batch, s, RefreshMode::Full);
-    let mut sampler = Sampler::new(SamplerSettings::default()).unwrap();
-    let (mut coarse, mut samples) = (CoarseSamples::default(), RaySamples::default());
-    sampler.sample(&grid, &rays, batch, s, Some(5), &mut coarse, &mut samples);
+    let samples = common::fast_samples(&grid, &rays, batch, s, Some(5));
     let v = f64::from(s).ln() / 10.0;
     let a = run::<f32>(torus, &dirs, &samples, v);
     let b = run::<f64>(torus, &dirs, &samples, v);

@@ -2,10 +2,12 @@
 //! ray–sphere intersection.
 #![allow(clippy::needless_range_loop)] // index-heavy test arithmetic over parallel arrays
 
+mod common;
+
 use wildlight_render::composite::ray_maps;
 use wildlight_render::neus::{NeusInputs, NeusSettings, NeusWeights};
 use wildlight_render::occupancy::{OccupancyGrid, OccupancySettings, RefreshMode};
-use wildlight_render::sampler::{CoarseSamples, RaySamples, Rays, Sampler, SamplerSettings};
+use wildlight_render::sampler::Rays;
 
 const CENTRE: [f32; 3] = [0.1, -0.05, 0.0];
 const RADIUS: f32 = 0.6;
@@ -43,9 +45,7 @@ fn depth_normal_and_mask_match_the_analytic_sphere() {
     };
     let mut grid = OccupancyGrid::new(OccupancySettings::default()).unwrap();
     grid.refresh(batch, s, RefreshMode::Full);
-    let mut sampler = Sampler::new(SamplerSettings::default()).unwrap();
-    let (mut coarse, mut samples) = (CoarseSamples::default(), RaySamples::default());
-    sampler.sample(&grid, &rays, batch, s, None, &mut coarse, &mut samples);
+    let samples = common::fast_samples(&grid, &rays, batch, s, None);
     let (sdf, grad): (Vec<f32>, Vec<[f32; 3]>) =
         samples.positions.iter().map(|&p| sdf_grad(p)).unzip();
     let inputs = NeusInputs {

@@ -1,10 +1,12 @@
 //! Degenerate inputs: NaNs reach the outputs (so the trainer's guard sees
 //! them) instead of being hidden, and nothing panics.
 
+mod common;
+
 use wildlight_material::BrdfSettings;
 use wildlight_render::flash::{FlashInputs, flash_backward, flash_forward};
 use wildlight_render::neus::{NeusInputs, NeusSettings, NeusWeights};
-use wildlight_render::occupancy::{OccupancyGrid, OccupancySettings, RefreshMode};
+use wildlight_render::occupancy::RefreshMode;
 use wildlight_render::sampler::{CoarseSamples, RaySamples, Rays, Sampler, SamplerSettings};
 
 #[test]
@@ -63,11 +65,7 @@ fn a_zero_gradient_gives_no_flash_and_no_nan() {
 
 #[test]
 fn sampling_survives_nan_sdf_values_and_bad_rays() {
-    let mut grid = OccupancyGrid::new(OccupancySettings {
-        resolution: 16,
-        ..Default::default()
-    })
-    .unwrap();
+    let mut grid = common::occupancy_grid(16);
     // A field that is NaN everywhere: cells stay sampled.
     grid.refresh(
         |_: &[[f32; 3]], out: &mut [f32]| out.fill(f32::NAN),

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{Torus, camera_rays, colour};
+use common::{Torus, camera_rays};
 use wildlight_material::BrdfSettings;
 use wildlight_render::composite::composite;
 use wildlight_render::flash::{FlashInputs, flash_forward};
@@ -13,14 +13,6 @@ use wildlight_render::occupancy::{OccupancyGrid, OccupancySettings, RefreshMode}
 use wildlight_render::sampler::{
     CoarseSamples, RaySamples, Rays, Sampler, SamplerSettings, dense_samples, sphere_chord,
 };
-
-fn torus_sdf(torus: Torus) -> impl Fn(&[[f32; 3]], &mut [f32]) {
-    move |p: &[[f32; 3]], out: &mut [f32]| {
-        for (o, x) in out.iter_mut().zip(p) {
-            *o = torus.eval(x.map(f64::from)).0 as f32;
-        }
-    }
-}
 
 /// Renders colour (ambient = the smooth colour function, plus flash with a
 /// fixed material) and Σw per ray, in f64, from the given samples.
@@ -32,16 +24,8 @@ fn render(
     settings: &NeusSettings,
 ) -> (Vec<[f64; 3]>, Vec<f64>) {
     let n = samples.len();
-    let mut sdf = Vec::with_capacity(n);
-    let mut grad = Vec::with_capacity(n);
-    let mut ambient = Vec::with_capacity(n);
-    for p in &samples.positions {
-        let p = p.map(f64::from);
-        let (f, g) = torus.eval(p);
-        sdf.push(f);
-        grad.push(g);
-        ambient.push(colour(p).map(|c| 0.5 * c));
-    }
+    let (sdf, grad, colours) = torus.fields_at(&samples.positions);
+    let ambient: Vec<[f64; 3]> = colours.iter().map(|c| c.map(|c| 0.5 * c)).collect();
     let dirs: Vec<[f64; 3]> = rays.dirs.iter().map(|d| d.map(f64::from)).collect();
     let t: Vec<f64> = samples.t.iter().map(|&x| f64::from(x)).collect();
     let delta: Vec<f64> = samples.delta.iter().map(|&x| f64::from(x)).collect();
@@ -88,19 +72,8 @@ fn fast_sampler_matches_dense_sampling() {
     for &s in &[60.0f64, 500.0, 2000.0] {
         let v = s.ln() / 10.0;
         let mut grid = OccupancyGrid::new(OccupancySettings::default()).unwrap();
-        grid.refresh(torus_sdf(torus), s as f32, RefreshMode::Full);
-        let mut sampler = Sampler::new(SamplerSettings::default()).unwrap();
-        let mut coarse = CoarseSamples::default();
-        let mut fast = RaySamples::default();
-        sampler.sample(
-            &grid,
-            &rays,
-            torus_sdf(torus),
-            s as f32,
-            None,
-            &mut coarse,
-            &mut fast,
-        );
+        grid.refresh(torus.batch_sdf(), s as f32, RefreshMode::Full);
+        let fast = common::fast_samples(&grid, &rays, torus.batch_sdf(), s as f32, None);
         let mut dense = RaySamples::default();
         dense_samples(&rays, 4000, 1.0, &mut dense);
         // ε = 0: the SPEC's ε adds ≈ ε of opacity per sample (see
@@ -163,12 +136,8 @@ fn sections_are_contiguous_inside_the_sphere_and_respect_the_cap() {
         dirs: &dirs,
     };
     for &s in &[20.0f32, 300.0, 3000.0] {
-        let mut grid = OccupancyGrid::new(OccupancySettings {
-            resolution: 64,
-            ..Default::default()
-        })
-        .unwrap();
-        grid.refresh(torus_sdf(torus), s, RefreshMode::Full);
+        let mut grid = common::occupancy_grid(64);
+        grid.refresh(torus.batch_sdf(), s, RefreshMode::Full);
         let settings = SamplerSettings::default();
         let mut sampler = Sampler::new(settings).unwrap();
         let mut coarse = CoarseSamples::default();
@@ -176,7 +145,7 @@ fn sections_are_contiguous_inside_the_sphere_and_respect_the_cap() {
         sampler.sample(
             &grid,
             &rays,
-            torus_sdf(torus),
+            torus.batch_sdf(),
             s,
             Some(42),
             &mut coarse,
@@ -275,31 +244,11 @@ fn sampling_is_deterministic_across_thread_counts() {
         origins: &origins,
         dirs: &dirs,
     };
-    let mut grid = OccupancyGrid::new(OccupancySettings {
-        resolution: 64,
-        ..Default::default()
-    })
-    .unwrap();
-    grid.refresh(torus_sdf(torus), 400.0, RefreshMode::Full);
+    let mut grid = common::occupancy_grid(64);
+    grid.refresh(torus.batch_sdf(), 400.0, RefreshMode::Full);
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
-            let mut sampler = Sampler::new(SamplerSettings::default()).unwrap();
-            let mut coarse = CoarseSamples::default();
-            let mut fast = RaySamples::default();
-            sampler.sample(
-                &grid,
-                &rays,
-                torus_sdf(torus),
-                400.0,
-                Some(7),
-                &mut coarse,
-                &mut fast,
-            );
-            fast
+        common::on_threads(threads, || {
+            common::fast_samples(&grid, &rays, torus.batch_sdf(), 400.0, Some(7))
         })
     };
     let (a, b) = (run(1), run(2));

@@ -5,7 +5,7 @@
 use crate::config::TrainConfig;
 use crate::model::Model;
 use crate::pipeline::{Pipeline, eval_sdf};
-use crate::render_view::{ViewMaps, render_view};
+use crate::render_view::render_view;
 use crate::run::{CHECKPOINT_FILE, RunInfo, read_run};
 use crate::trainer::load_model;
 use anyhow::Context;
@@ -13,6 +13,7 @@ use std::path::Path;
 use wildlight_data::exr_io::{write_exr_channels, write_exr_rgb};
 use wildlight_data::writer::indexed_file_name;
 use wildlight_data::{Camera, RgbImage};
+use wildlight_export::ViewMaps;
 use wildlight_fields::{Checkpoint, FieldContext};
 use wildlight_render::{OccupancyGrid, RefreshMode, Sampler};
 

@@ -2,10 +2,10 @@
 //! photo, the rendering, the normals, the base colour, the flash-only and
 //! the ambient-only images.
 
-use crate::render_view::ViewMaps;
 use anyhow::Context;
 use std::path::Path;
 use wildlight_data::View;
+use wildlight_export::ViewMaps;
 
 /// Linear → sRGB-encoded 8-bit, clamped.
 pub fn srgb8(v: f32) -> u8 {

@@ -5,34 +5,12 @@
 use crate::model::Model;
 use crate::pipeline::{PassSettings, Pipeline, RayInputs};
 use wildlight_data::Camera;
+use wildlight_export::ViewMaps;
 use wildlight_material::PARAM_COUNT;
 use wildlight_render::{OccupancyGrid, composite};
 
 /// Rays rendered per chunk (bounds memory).
 pub const RENDER_CHUNK: usize = 8192;
-
-/// Everything rendered for one view. Per-pixel arrays are row-major.
-#[derive(Clone, Debug, Default)]
-pub struct ViewMaps {
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
-    /// Rendered linear RGB (ambient + flash).
-    pub rgb: Vec<[f32; 3]>,
-    /// Flash-only radiance.
-    pub flash: Vec<[f32; 3]>,
-    /// Ambient-only radiance.
-    pub ambient: Vec<[f32; 3]>,
-    /// Unit normal (normalized frame); zero where nothing was hit.
-    pub normal: Vec<[f32; 3]>,
-    /// Distance along the ray to the surface (normalized frame), weight-averaged.
-    pub depth: Vec<f32>,
-    /// Accumulated weight Σw (the soft mask).
-    pub acc: Vec<f32>,
-    /// Weight-averaged material parameters.
-    pub params: Vec<[f32; PARAM_COUNT]>,
-}
 
 /// Renders `camera` at `scale` times its resolution with the given flash
 /// energy (use the camera's own `light_energy` for "as captured").
@@ -52,17 +30,7 @@ pub fn render_view(
         camera.height as f64 / height as f64,
     );
     let n = (width * height) as usize;
-    let mut maps = ViewMaps {
-        width,
-        height,
-        rgb: Vec::with_capacity(n),
-        flash: Vec::with_capacity(n),
-        ambient: Vec::with_capacity(n),
-        normal: Vec::with_capacity(n),
-        depth: Vec::with_capacity(n),
-        acc: Vec::with_capacity(n),
-        params: Vec::with_capacity(n),
-    };
+    let mut maps = ViewMaps::with_capacity(width, height);
     let settings = PassSettings {
         fd_step,
         cos_anneal_ratio: 1.0,

@@ -1,6 +1,9 @@
 //! Analytic fields and cameras shared by the integration tests.
 #![allow(dead_code)]
 
+use wildlight_render::occupancy::{OccupancyGrid, OccupancySettings};
+use wildlight_render::sampler::{CoarseSamples, RaySamples, Rays, Sampler, SamplerSettings};
+
 /// A torus around the y axis (major radius `major`, tube radius `minor`),
 /// tilted by rotating the query point about the x axis by `tilt`.
 #[derive(Clone, Copy, Debug)]
@@ -37,6 +40,34 @@ impl Torus {
         let ql = (qx * qx + y * y).sqrt().max(1e-12);
         let g = [qx / ql * x / rho, y / ql, qx / ql * z / rho];
         (ql - self.minor, self.rotate_back(g))
+    }
+
+    /// φ in f32 for a batch of points: the closure the occupancy grid and
+    /// the sampler evaluate.
+    pub fn batch_sdf(self) -> impl Fn(&[[f32; 3]], &mut [f32]) + Copy {
+        move |p: &[[f32; 3]], out: &mut [f32]| {
+            for (o, x) in out.iter_mut().zip(p) {
+                *o = self.eval(x.map(f64::from)).0 as f32;
+            }
+        }
+    }
+
+    /// φ, ∇φ and [`colour`] at each of `positions`, in f64.
+    pub fn fields_at(&self, positions: &[[f32; 3]]) -> (Vec<f64>, Vec<[f64; 3]>, Vec<[f64; 3]>) {
+        let n = positions.len();
+        let (mut sdf, mut grad, mut col) = (
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+        );
+        for p in positions {
+            let p = p.map(f64::from);
+            let (f, g) = self.eval(p);
+            sdf.push(f);
+            grad.push(g);
+            col.push(colour(p));
+        }
+        (sdf, grad, col)
     }
 
     /// A point on the surface at angles (u around the axis, w around the tube).
@@ -110,4 +141,38 @@ impl TestRng {
     pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
         lo + (hi - lo) * self.next_f64()
     }
+}
+
+/// An occupancy grid of `resolution`³ cells, its other settings the defaults.
+pub fn occupancy_grid(resolution: usize) -> OccupancyGrid {
+    OccupancyGrid::new(OccupancySettings {
+        resolution,
+        ..Default::default()
+    })
+    .unwrap()
+}
+
+/// Runs `f` on a rayon pool of `threads` threads.
+pub fn on_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
+/// The samples of `rays` drawn by a fresh sampler with the default settings
+/// from `grid`, the batch SDF `sdf` at sharpness `s` and the jitter seed
+/// `jitter_seed` (`None`: no jitter).
+pub fn fast_samples(
+    grid: &OccupancyGrid,
+    rays: &Rays<'_>,
+    sdf: impl FnOnce(&[[f32; 3]], &mut [f32]),
+    s: f32,
+    jitter_seed: Option<u64>,
+) -> RaySamples {
+    let mut sampler = Sampler::new(SamplerSettings::default()).unwrap();
+    let (mut coarse, mut samples) = (CoarseSamples::default(), RaySamples::default());
+    sampler.sample(grid, rays, sdf, s, jitter_seed, &mut coarse, &mut samples);
+    samples
 }

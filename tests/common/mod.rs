@@ -1,0 +1,56 @@
+//! Helpers shared by the CLI integration tests (`tests/cli_*.rs`): running
+//! the `wildlight` binary of this build and writing a tiny synthetic capture.
+
+// Every test binary compiles this module but uses only some of its helpers.
+#![allow(dead_code)]
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+/// The `wildlight` binary of this build, ready for arguments.
+pub fn wildlight() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_wildlight"))
+}
+
+/// Runs `wildlight` with `args` and returns what it printed and its status.
+pub fn run(args: &[&str]) -> Output {
+    wildlight()
+        .args(args)
+        .output()
+        .expect("the wildlight binary runs")
+}
+
+/// `p` as a command-line argument (temporary and fixture paths are UTF-8).
+pub fn path_arg(p: &Path) -> &str {
+    p.to_str().expect("test paths are UTF-8")
+}
+
+/// The size of the tiny synthetic capture the CLI tests use: 4 training
+/// views and 1 validation view of 32×32 pixels at 4 samples per pixel, and
+/// a ground-truth mesh extracted at resolution 48.
+pub const TINY_CAPTURE_ARGS: [&str; 12] = [
+    "--views",
+    "4",
+    "--val-views",
+    "1",
+    "--width",
+    "32",
+    "--height",
+    "32",
+    "--spp",
+    "4",
+    "--mesh-resolution",
+    "48",
+];
+
+/// `wildlight synth --scene <scene> --out <out>` writing a tiny capture
+/// ([`TINY_CAPTURE_ARGS`]) quietly; callers may add arguments before running it.
+pub fn tiny_synth(scene: &str, out: &Path) -> Command {
+    let mut command = wildlight();
+    command
+        .args(["synth", "--scene", scene, "--out"])
+        .arg(out)
+        .args(TINY_CAPTURE_ARGS)
+        .arg("--quiet");
+    command
+}
