@@ -6,7 +6,10 @@
 //! in a table. Coarse levels whose `(N_l+1)³` vertices fit in the table are
 //! indexed densely, the others by the spatial hash
 //! `(i · 1) xor (j · 2654435761) xor (k · 805459861) mod T`.
-//! The output of a level is the trilinear interpolation of its 8 corners.
+//! The output of a level blends its 8 corners with the product of per-axis
+//! weights: trilinear (t, 1 − t), or smoothstep (s(t), 1 − s(t) with
+//! s(t) = t²(3 − 2t)), which makes the encoding C¹ across cell faces
+//! ([`Interpolation`]).
 //!
 //! Parameter layout: one flat vector, level after level; inside a level, entry
 //! after entry, the `F` features of an entry contiguous.
@@ -46,6 +49,25 @@ pub struct HashGridConfig {
     pub finest_resolution: u32,
     /// Table entries are drawn uniformly from `[−init_range, init_range]`.
     pub init_range: f32,
+    /// How a level blends the eight corners of a cell.
+    #[serde(default)]
+    pub interpolation: Interpolation,
+}
+
+/// How a level blends the eight corners of the cell around a point, from
+/// the point's fractional position t ∈ [0, 1] along each axis.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Interpolation {
+    /// Trilinear: weights t and 1 − t. The encoding is continuous, its
+    /// spatial derivative jumps at every cell face, so a zero level set of a
+    /// field built on it has a kink wherever it crosses one.
+    #[default]
+    Linear,
+    /// Weights s(t) = t²(3 − 2t) and 1 − s(t): the derivative
+    /// s'(t) = 6t(1 − t) vanishes at the faces, so the encoding is C¹ and
+    /// level sets are smooth across cells.
+    Smoothstep,
 }
 
 impl Default for HashGridConfig {
@@ -58,6 +80,7 @@ impl Default for HashGridConfig {
             base_resolution: 16,
             finest_resolution: 2048,
             init_range: 1e-4,
+            interpolation: Interpolation::Linear,
         }
     }
 }
@@ -73,6 +96,8 @@ pub struct LevelInfo {
     pub param_offset: usize,
     /// Whether the level is indexed densely (no hashing).
     pub dense: bool,
+    /// Whether the corner weights use smoothstep ([`Interpolation::Smoothstep`]).
+    pub smoothstep: bool,
 }
 
 /// Where the values of blocks of rows live (encoder outputs or their
@@ -127,6 +152,12 @@ struct Cell<T> {
     frac: [T; 3],
     /// 1 where the coordinate was inside `[0,1]` (derivative flows), 0 where clamped.
     inside: [T; 3],
+}
+
+/// s(t) = t²(3 − 2t), the weight of [`Interpolation::Smoothstep`].
+#[inline(always)]
+fn smoothstep<T: Real>(t: T) -> T {
+    t * t * (T::from_f64(3.0) - T::from_f64(2.0) * t)
 }
 
 #[inline(always)]
@@ -270,7 +301,14 @@ impl<T: Real> BlockCells<T> {
                 let fr = pos - T::from_u32(fl);
                 i0[d][i] = fl;
                 w1[d][i] = fr;
-                w0[d][i] = T::ONE - fr;
+            }
+            if level.smoothstep {
+                for w in &mut w1[d] {
+                    *w = smoothstep(*w);
+                }
+            }
+            for i in 0..BLOCK {
+                w0[d][i] = T::ONE - w1[d][i];
             }
         }
         // weight of corner (a, b, e) = (wx · wy) · wz, in that order.
@@ -392,6 +430,7 @@ impl<T: Real> HashGrid<T> {
                 entries,
                 param_offset: offset,
                 dense,
+                smoothstep: c.interpolation == Interpolation::Smoothstep,
             });
             offset += entries * c.n_features;
         }
@@ -932,11 +971,16 @@ impl<T: Real> HashGrid<T> {
                     d[k] = d_out[p * rs + (c0 + k) * cs];
                 }
                 let cell = locate(level, xp);
-                let [fx, fy, fz] = cell.frac;
-                let wx = [T::ONE - fx, fx];
-                let wy = [T::ONE - fy, fy];
-                let wz = [T::ONE - fz, fz];
-                let sgn = [-T::ONE, T::ONE];
+                // per axis: the weights [1 − s, s] and ∂s/∂t
+                let axis = |t: T| {
+                    if level.smoothstep {
+                        let s = smoothstep(t);
+                        ([T::ONE - s, s], T::from_f64(6.0) * t * (T::ONE - t))
+                    } else {
+                        ([T::ONE - t, t], T::ONE)
+                    }
+                };
+                let [(wx, sx), (wy, sy), (wz, sz)] = cell.frac.map(axis);
                 let mut gx = [T::ZERO; 3];
                 for c in 0..8 {
                     let (a, b, cc) = (c & 1, (c >> 1) & 1, (c >> 2) & 1);
@@ -945,9 +989,10 @@ impl<T: Real> HashGrid<T> {
                     for k in 0..f {
                         vd += table[e + k] * d[k];
                     }
-                    gx[0] += vd * sgn[a] * wy[b] * wz[cc];
-                    gx[1] += vd * wx[a] * sgn[b] * wz[cc];
-                    gx[2] += vd * wx[a] * wy[b] * sgn[cc];
+                    let sgn = |bit: usize| if bit == 1 { T::ONE } else { -T::ONE };
+                    gx[0] += vd * sgn(a) * sx * wy[b] * wz[cc];
+                    gx[1] += vd * wx[a] * sgn(b) * sy * wz[cc];
+                    gx[2] += vd * wx[a] * wy[b] * sgn(cc) * sz;
                 }
                 for k in 0..3 {
                     d_x[p][k] += gx[k] * scale * cell.inside[k];

@@ -81,7 +81,7 @@ pub use activation::Activation;
 pub use adam::{Adam, AdamConfig, AdamGroup, Decay, LrSchedule};
 pub use checkpoint::{CHECKPOINT_FORMAT_VERSION, Checkpoint, CheckpointWriter, Checkpointable};
 pub use error::FieldError;
-pub use hash_grid::{HashGrid, HashGridConfig};
+pub use hash_grid::{HashGrid, HashGridConfig, Interpolation};
 pub use mlp::{CHUNK_ROWS, Mlp, MlpChunk, MlpConfig, MlpContext, MlpScratch};
 pub use neural_field::{FieldContext, FieldGrads, NeuralField, NeuralFieldConfig};
 pub use real::Real;

@@ -15,6 +15,7 @@ fn config() -> NeuralFieldConfig {
             base_resolution: 3,
             finest_resolution: 40,
             init_range: 0.5,
+            interpolation: Default::default(),
         },
         bound: 1.2,
         include_position: true,

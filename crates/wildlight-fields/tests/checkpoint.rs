@@ -15,6 +15,7 @@ fn config() -> SdfFieldConfig {
             base_resolution: 4,
             finest_resolution: 32,
             init_range: 1e-4,
+            interpolation: Default::default(),
         },
         hidden: vec![16],
         n_features: 3,

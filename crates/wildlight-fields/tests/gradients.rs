@@ -69,7 +69,7 @@ fn f32_activations_match_f64_references() {
     }
 }
 
-fn small_grid(f: usize) -> HashGridConfig {
+fn small_grid(f: usize, interpolation: Interpolation) -> HashGridConfig {
     // Levels at resolution 2, 4, 8, 16: the first two dense (27, 125 vertices ≤ 128), the others hashed.
     HashGridConfig {
         n_levels: 4,
@@ -78,14 +78,20 @@ fn small_grid(f: usize) -> HashGridConfig {
         base_resolution: 2,
         finest_resolution: 16,
         init_range: 1.0,
+        interpolation,
     }
 }
 
+const INTERPOLATIONS: [Interpolation; 2] = [Interpolation::Linear, Interpolation::Smoothstep];
+
 #[test]
 fn hash_grid_table_gradient_matches_finite_differences() {
-    for f in [1, 2, 4, 8] {
+    for (f, interpolation) in [1, 2, 4, 8]
+        .into_iter()
+        .flat_map(|f| INTERPOLATIONS.map(|i| (f, i)))
+    {
         let mut r = rng(1);
-        let mut grid = HashGrid::<f64>::new(&small_grid(f), 3).unwrap();
+        let mut grid = HashGrid::<f64>::new(&small_grid(f, interpolation), 3).unwrap();
         assert!(grid.levels()[0].dense && grid.levels()[1].dense && !grid.levels()[3].dense);
         let n = 40;
         let x: Vec<[f64; 3]> = (0..n)
@@ -111,7 +117,7 @@ fn hash_grid_table_gradient_matches_finite_differences() {
             let lm = loss(&grid);
             grid.params[i] = v;
             assert_close(
-                &format!("F={f} table entry {i}"),
+                &format!("F={f} {interpolation:?} table entry {i}"),
                 grad[i],
                 (lp - lm) / (2.0 * h),
                 1e-8,
@@ -127,8 +133,14 @@ fn hash_grid_table_gradient_matches_finite_differences() {
 
 #[test]
 fn hash_grid_input_gradient_matches_finite_differences() {
+    for interpolation in INTERPOLATIONS {
+        check_input_gradient(interpolation);
+    }
+}
+
+fn check_input_gradient(interpolation: Interpolation) {
     let mut r = rng(2);
-    let grid = HashGrid::<f64>::new(&small_grid(2), 5).unwrap();
+    let grid = HashGrid::<f64>::new(&small_grid(2, interpolation), 5).unwrap();
     let n = 30;
     let x: Vec<[f64; 3]> = (0..n)
         .map(|_| [r.random(), r.random(), r.random()])
@@ -149,7 +161,7 @@ fn hash_grid_input_gradient_matches_finite_differences() {
             };
             let numeric = (eval(h) - eval(-h)) / (2.0 * h);
             assert_close(
-                &format!("point {p} axis {k}"),
+                &format!("{interpolation:?} point {p} axis {k}"),
                 d_x[p][k],
                 numeric,
                 1e-5,
@@ -157,6 +169,35 @@ fn hash_grid_input_gradient_matches_finite_differences() {
             );
         }
     }
+}
+
+/// The point of smoothstep: the encoding's spatial derivative is continuous
+/// where a point crosses a cell face (x = 0.5 is a face of every level
+/// here), while the trilinear one jumps there.
+#[test]
+fn smoothstep_encoding_has_a_continuous_derivative_across_cell_faces() {
+    let jump = |interpolation: Interpolation| {
+        let grid = HashGrid::<f64>::new(&small_grid(2, interpolation), 5).unwrap();
+        let no = grid.n_outputs();
+        let d_out = vec![1.0; no];
+        let derivative = |x: f64| {
+            let mut d_x = vec![[0.0; 3]; 1];
+            grid.backward_input(&[[x, 0.3, 0.7]], &d_out, no, 0, 4, &mut d_x);
+            d_x[0][0]
+        };
+        let (below, above) = (derivative(0.5 - 1e-9), derivative(0.5 + 1e-9));
+        ((above - below).abs(), below.abs().max(above.abs()))
+    };
+    let (linear_jump, linear_size) = jump(Interpolation::Linear);
+    let (smooth_jump, _) = jump(Interpolation::Smoothstep);
+    assert!(
+        linear_jump > 0.1 * linear_size,
+        "trilinear derivative jumps: {linear_jump} of {linear_size}"
+    );
+    assert!(
+        smooth_jump < 1e-5,
+        "smoothstep derivative jumps by {smooth_jump}"
+    );
 }
 
 #[test]
@@ -231,7 +272,7 @@ fn field_config(n_extra: usize, include_position: bool) -> NeuralFieldConfig {
     NeuralFieldConfig {
         grid: HashGridConfig {
             init_range: 0.5,
-            ..small_grid(2)
+            ..small_grid(2, Interpolation::Linear)
         },
         bound: 1.2,
         include_position,
@@ -344,7 +385,7 @@ fn small_sdf_config() -> SdfFieldConfig {
     SdfFieldConfig {
         grid: HashGridConfig {
             init_range: 0.3,
-            ..small_grid(2)
+            ..small_grid(2, Interpolation::Linear)
         },
         bound: 1.0,
         hidden: vec![16],
@@ -431,7 +472,7 @@ fn fd_normals_approximate_the_analytic_gradient() {
     let cfg = SdfFieldConfig {
         grid: HashGridConfig {
             init_range: 0.02,
-            ..small_grid(2)
+            ..small_grid(2, Interpolation::Linear)
         },
         ..small_sdf_config()
     };
@@ -476,7 +517,7 @@ fn fd_normals_approximate_the_analytic_gradient() {
 #[test]
 fn per_part_buffer_backward_equals_level_parallel_backward() {
     let mut r = rng(9);
-    let grid = HashGrid::<f64>::new(&small_grid(2), 3).unwrap();
+    let grid = HashGrid::<f64>::new(&small_grid(2, Interpolation::Linear), 3).unwrap();
     let n = 300;
     let x: Vec<[f64; 3]> = (0..n)
         .map(|_| [r.random(), r.random(), r.random()])

@@ -4,6 +4,7 @@
 //! Σw, plus the eikonal term → a loss. Every parameter group of a tiny model
 //! is probed.
 
+use wildlight_fields::Interpolation;
 use wildlight_train::config::{AmbientModel, FieldSize, ModelConfig};
 use wildlight_train::model::Model;
 use wildlight_train::pipeline::{PassSettings, Pipeline, RayInputs};
@@ -16,12 +17,17 @@ fn tiny(levels: usize, log2: u32, hidden: usize) -> FieldSize {
         base_resolution: 3,
         finest_resolution: 9,
         hidden: vec![hidden],
+        interpolation: Default::default(),
     }
 }
 
 fn tiny_config() -> ModelConfig {
     ModelConfig {
-        sdf: tiny(3, 7, 8),
+        // smoothstep corner weights, as the default SDF field has
+        sdf: FieldSize {
+            interpolation: Interpolation::Smoothstep,
+            ..tiny(3, 7, 8)
+        },
         geometry_features: 3,
         init_radius: 0.5,
         material: tiny(2, 6, 8),

@@ -37,6 +37,7 @@ fn small(levels: usize, log2: u32, finest: u32, hidden: Vec<usize>) -> FieldSize
         base_resolution: 8,
         finest_resolution: finest,
         hidden,
+        interpolation: Default::default(),
     }
 }
 
