@@ -981,6 +981,7 @@ impl<T: Real> HashGrid<T> {
                     }
                 };
                 let [(wx, sx), (wy, sy), (wz, sz)] = cell.frac.map(axis);
+                let sgn = |bit: usize| if bit == 1 { T::ONE } else { -T::ONE };
                 let mut gx = [T::ZERO; 3];
                 for c in 0..8 {
                     let (a, b, cc) = (c & 1, (c >> 1) & 1, (c >> 2) & 1);
@@ -989,7 +990,6 @@ impl<T: Real> HashGrid<T> {
                     for k in 0..f {
                         vd += table[e + k] * d[k];
                     }
-                    let sgn = |bit: usize| if bit == 1 { T::ONE } else { -T::ONE };
                     gx[0] += vd * sgn(a) * sx * wy[b] * wz[cc];
                     gx[1] += vd * wx[a] * sgn(b) * sy * wz[cc];
                     gx[2] += vd * wx[a] * wy[b] * sgn(cc) * sz;

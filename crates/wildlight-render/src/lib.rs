@@ -98,6 +98,18 @@ pub mod real;
 pub mod sampler;
 pub mod sh;
 
+/// A seeded xorshift64 stream of uniform numbers in [0, 1) for the unit
+/// tests (integration tests use `rand`).
+#[cfg(test)]
+pub(crate) fn test_uniform(mut state: u64) -> impl FnMut() -> f64 {
+    move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 pub use composite::{
     RayMaps, acc_weight_backward, add_background, add_background_backward, composite,
     composite_backward, ray_maps,

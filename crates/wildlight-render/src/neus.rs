@@ -383,13 +383,7 @@ mod tests {
 
     #[test]
     fn value_only_alpha_equals_alpha_of_the_partials() {
-        let mut x = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = crate::test_uniform(0x2545_f491_4f6c_dd1d);
         for i in 0..2000 {
             let sdf = next() * 0.6 - 0.3;
             let slope = next() * 3.0 - 1.5;

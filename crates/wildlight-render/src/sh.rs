@@ -109,13 +109,8 @@ mod tests {
     /// The Jacobian against central differences in f64 at random points.
     #[test]
     fn jacobian_matches_finite_differences() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut rnd = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut uniform = crate::test_uniform(0x9e37_79b9_7f4a_7c15);
+        let mut rnd = || uniform() * 2.0 - 1.0;
         for _ in 0..50 {
             let d = [rnd(), rnd(), rnd()];
             let jac = sh_deg4_jacobian(d);

@@ -15,7 +15,7 @@
 use crate::config::{AmbientDirection, AmbientModel};
 use crate::float::{Float, dot3, of};
 use crate::model::Model;
-use wildlight_fields::{FieldContext, FieldGrads};
+use wildlight_fields::{FieldContext, FieldGrads, NeuralField};
 use wildlight_material::{BASE_COLOR, CLEARCOAT, DIELECTRIC, METALLIC, PARAM_COUNT, ROUGHNESS};
 use wildlight_render::{SH_DEG4_LEN, sh_deg4, sh_deg4_jacobian};
 
@@ -86,9 +86,23 @@ pub struct AmbientPass<T> {
     d_specular_extra: Vec<T>,
 }
 
+/// The `ambient_specular` field when the model's form uses one
+/// ([`AmbientModel::DiffuseSpecular`]; [`Model::new`] builds it then).
+fn specular_field<T: Float>(model: &Model<T>) -> Option<&NeuralField<T>> {
+    match model.config.ambient_model {
+        AmbientModel::Neural => None,
+        AmbientModel::DiffuseSpecular => Some(
+            model
+                .ambient_specular
+                .as_ref()
+                .expect("a diffuse-specular model has an ambient_specular field"),
+        ),
+    }
+}
+
 /// The mirror image of `d` about the unit normal `n`: d − 2(d·n)n.
 #[inline]
-pub fn reflect<T: Float>(d: [T; 3], n: [T; 3]) -> [T; 3] {
+fn reflect<T: Float>(d: [T; 3], n: [T; 3]) -> [T; 3] {
     let k = of::<T>(2.0) * dot3(d, n);
     [d[0] - k * n[0], d[1] - k * n[1], d[2] - k * n[2]]
 }
@@ -104,7 +118,8 @@ impl<T: Float + Default> AmbientPass<T> {
         let config = &model.config;
         let nf = config.geometry_features;
         let n = inputs.positions.len();
-        let split = config.ambient_model == AmbientModel::DiffuseSpecular;
+        let specular = specular_field(model);
+        let split = specular.is_some();
         let reflected = config.ambient_direction == AmbientDirection::Reflected;
         self.extra.clear();
         self.extra
@@ -134,8 +149,8 @@ impl<T: Float + Default> AmbientPass<T> {
             .ambient
             .forward(inputs.positions, &self.extra, &mut self.ctx);
         out.clear();
-        match &model.ambient_specular {
-            Some(specular) if split => {
+        match specular {
+            Some(specular) => {
                 specular.forward(
                     inputs.positions,
                     &self.specular_extra,
@@ -151,11 +166,7 @@ impl<T: Float + Default> AmbientPass<T> {
                     },
                 ));
             }
-            _ => {
-                assert!(
-                    !split,
-                    "a diffuse-specular model has an ambient_specular field"
-                );
+            None => {
                 out.extend(
                     self.ctx
                         .output()
@@ -183,16 +194,13 @@ impl<T: Float + Default> AmbientPass<T> {
         let nf = config.geometry_features;
         let n = inputs.positions.len();
         let ne = ambient_extra_inputs(config.ambient_model, nf);
-        let split = config.ambient_model == AmbientModel::DiffuseSpecular;
+        let specular = specular_field(model);
+        let split = specular.is_some();
         let reflected = config.ambient_direction == AmbientDirection::Reflected;
         let trains_material = config.ambient_trains_material;
         self.d_extra.clear();
         self.d_extra.resize(n * ne, T::ZERO);
-        if split {
-            let specular = model
-                .ambient_specular
-                .as_ref()
-                .expect("a diffuse-specular model has an ambient_specular field");
+        if let Some(specular) = specular {
             let specular_grads = specular_grads.expect("gradients for the ambient_specular field");
             // a = A ⊙ E_d + F0 ⊙ E_s: ∂L/∂E_d = A ⊙ ∂L/∂a, ∂L/∂E_s = F0 ⊙ ∂L/∂a,
             // and Θ through A and F0.
