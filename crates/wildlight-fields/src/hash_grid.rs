@@ -215,6 +215,146 @@ fn locate<T: Real>(level: &LevelInfo, x: [T; 3]) -> Cell<T> {
     }
 }
 
+/// The per-point work of one level inside [`walk_level`]: the forward
+/// gather ([`Gather`]) and the backward scatter ([`Scatter`]).
+trait LevelKernel<T> {
+    /// Prefetches the rows of points `first .. first + count` (the next block).
+    fn prefetch_rows(&self, first: usize, count: usize);
+    /// Processes point `i` of the located block `cells`, whose row is row
+    /// `row` of row block `block`.
+    fn point(&mut self, cells: &BlockCells<T>, i: usize, block: usize, row: usize);
+}
+
+/// The software-pipelined walk over the points of one level that the
+/// forward and the backward kernels share: block b+1 is located, and its
+/// table lines (at `table`, `F` values per entry) and rows prefetched,
+/// before the points of block b are processed, so cache misses overlap
+/// work. Rows come in blocks of `rows` rows.
+#[inline(always)]
+fn walk_level<T: Real, const F: usize>(
+    level: &LevelInfo,
+    x: &[[T; 3]],
+    table: *const T,
+    rows: usize,
+    kernel: &mut impl LevelKernel<T>,
+) {
+    let n_blocks = x.len().div_ceil(BLOCK);
+    let block = |b: usize| &x[b * BLOCK..((b + 1) * BLOCK).min(x.len())];
+    let mut cells = [BlockCells::new(), BlockCells::new()];
+    if n_blocks > 0 {
+        cells[0].locate(level, block(0));
+        if !level.dense {
+            cells[0].prefetch(table, F, block(0).len());
+        }
+    }
+    let (mut ob, mut or) = (0usize, 0usize);
+    for b in 0..n_blocks {
+        let (head, tail) = cells.split_at_mut(1);
+        let (cur, next) = if b % 2 == 0 {
+            (&head[0], &mut tail[0])
+        } else {
+            (&tail[0], &mut head[0])
+        };
+        if b + 1 < n_blocks {
+            next.locate(level, block(b + 1));
+            if !level.dense {
+                next.prefetch(table, F, block(b + 1).len());
+            }
+            kernel.prefetch_rows((b + 1) * BLOCK, block(b + 1).len());
+        }
+        for i in 0..block(b).len() {
+            kernel.point(cur, i, ob, or);
+            or += 1;
+            if or == rows {
+                or = 0;
+                ob += 1;
+            }
+        }
+    }
+}
+
+/// The forward kernel: out = Σ_c w_c · table[index_c] into columns
+/// `c0 .. c0 + F` of the output rows.
+struct Gather<'a, 'b, T, const F: usize> {
+    table: &'a [T],
+    out_blocks: &'a mut [&'b mut [T]],
+    layout: BlockLayout,
+    c0: usize,
+}
+
+impl<T: Real, const F: usize> LevelKernel<T> for Gather<'_, '_, T, F> {
+    #[inline(always)]
+    fn prefetch_rows(&self, first: usize, count: usize) {
+        prefetch_rows(self.out_blocks, self.layout, first, count, self.c0, F);
+    }
+
+    #[inline(always)]
+    fn point(&mut self, cur: &BlockCells<T>, i: usize, block: usize, row: usize) {
+        let (rs, cs) = (self.layout.row_stride, self.layout.col_stride);
+        let mut acc = [T::ZERO; F];
+        for c in 0..8 {
+            let e = cur.index[c][i] as usize * F;
+            debug_assert!(e + F <= self.table.len());
+            // SAFETY: `locate` yields indices below the level's entry
+            // count (dense: at most (r+1)³ − 1; hashed: masked by T − 1),
+            // and `table` holds `entries · F` values.
+            let v: &[T; F] = unsafe { &*(self.table.as_ptr().add(e) as *const [T; F]) };
+            let w = cur.weight[c][i];
+            for k in 0..F {
+                acc[k] += w * v[k];
+            }
+        }
+        let out = &mut *self.out_blocks[block];
+        let o = row * rs + self.c0 * cs;
+        debug_assert!(o + (F - 1) * cs < out.len());
+        for k in 0..F {
+            // SAFETY: the caller checked that every block holds its
+            // rows' columns `c0 .. c0 + F` (`BlockLayout::last_offset`).
+            unsafe { *out.get_unchecked_mut(o + k * cs) = acc[k] };
+        }
+    }
+}
+
+/// The backward kernel: g[index_c] += w_c · d_out for the upstream
+/// gradient in columns `c0 .. c0 + F` of the rows.
+struct Scatter<'a, 'b, T, const F: usize> {
+    g: &'a mut [T],
+    d_out_blocks: &'a [&'b [T]],
+    layout: BlockLayout,
+    c0: usize,
+}
+
+impl<T: Real, const F: usize> LevelKernel<T> for Scatter<'_, '_, T, F> {
+    #[inline(always)]
+    fn prefetch_rows(&self, first: usize, count: usize) {
+        prefetch_rows(self.d_out_blocks, self.layout, first, count, self.c0, F);
+    }
+
+    #[inline(always)]
+    fn point(&mut self, cur: &BlockCells<T>, i: usize, block: usize, row: usize) {
+        let (rs, cs) = (self.layout.row_stride, self.layout.col_stride);
+        let blk = self.d_out_blocks[block];
+        let o = row * rs + self.c0 * cs;
+        debug_assert!(o + (F - 1) * cs < blk.len());
+        let mut d = [T::ZERO; F];
+        for k in 0..F {
+            // SAFETY: `check_blocks` bounded every row's encoding columns.
+            d[k] = unsafe { *blk.get_unchecked(o + k * cs) };
+        }
+        for c in 0..8 {
+            let e = cur.index[c][i] as usize * F;
+            let w = cur.weight[c][i];
+            debug_assert!(e + F <= self.g.len());
+            // SAFETY: as in `Gather::point`, indices are below the level's
+            // entry count and `g` holds `entries · F` values.
+            let gv: &mut [T; F] = unsafe { &mut *(self.g.as_mut_ptr().add(e) as *mut [T; F]) };
+            for k in 0..F {
+                gv[k] += w * d[k];
+            }
+        }
+    }
+}
+
 /// Prefetches the values of columns `c0 .. c0 + f` of rows `p .. p + count`
 /// of blocks laid out as `layout` (one hint per cache line of a column-major
 /// run; every row for other layouts).
@@ -613,71 +753,18 @@ impl<T: Real> HashGrid<T> {
     ) {
         let level = &self.levels[level];
         let table = &self.params[level.param_offset..level.param_offset + level.entries * F];
-        let mut cells = [BlockCells::new(), BlockCells::new()];
-        let n_blocks = x.len().div_ceil(BLOCK);
-        let block = |b: usize| &x[b * BLOCK..((b + 1) * BLOCK).min(x.len())];
-        let (rs, cs) = (layout.row_stride, layout.col_stride);
-        // Software pipeline: block b+1 is located and its table lines
-        // prefetched before block b is gathered, so misses overlap work.
-        if n_blocks > 0 {
-            cells[0].locate(level, block(0));
-            if !level.dense {
-                cells[0].prefetch(table.as_ptr(), F, block(0).len());
-            }
-        }
-        // Output position of the current point: block `ob`, row `or`.
-        let (mut ob, mut or) = (0usize, 0usize);
-        for b in 0..n_blocks {
-            let (cur, next) = if b % 2 == 0 {
-                let (a, c) = cells.split_at_mut(1);
-                (&a[0], &mut c[0])
-            } else {
-                let (a, c) = cells.split_at_mut(1);
-                (&c[0], &mut a[0])
-            };
-            if b + 1 < n_blocks {
-                next.locate(level, block(b + 1));
-                if !level.dense {
-                    next.prefetch(table.as_ptr(), F, block(b + 1).len());
-                }
-                prefetch_rows(
-                    out_blocks,
-                    layout,
-                    (b + 1) * BLOCK,
-                    block(b + 1).len(),
-                    c0,
-                    F,
-                );
-            }
-            for i in 0..block(b).len() {
-                let mut acc = [T::ZERO; F];
-                for c in 0..8 {
-                    let e = cur.index[c][i] as usize * F;
-                    debug_assert!(e + F <= table.len());
-                    // SAFETY: `locate` yields indices below the level's entry
-                    // count (dense: at most (r+1)³ − 1; hashed: masked by T − 1),
-                    // and `table` holds `entries · F` values.
-                    let v: &[T; F] = unsafe { &*(table.as_ptr().add(e) as *const [T; F]) };
-                    let w = cur.weight[c][i];
-                    for k in 0..F {
-                        acc[k] += w * v[k];
-                    }
-                }
-                let out = &mut *out_blocks[ob];
-                let o = or * rs + c0 * cs;
-                debug_assert!(o + (F - 1) * cs < out.len());
-                for k in 0..F {
-                    // SAFETY: the caller checked that every block holds its
-                    // rows' columns `c0 .. c0 + F` (`BlockLayout::last_offset`).
-                    unsafe { *out.get_unchecked_mut(o + k * cs) = acc[k] };
-                }
-                or += 1;
-                if or == layout.rows {
-                    or = 0;
-                    ob += 1;
-                }
-            }
-        }
+        walk_level::<T, F>(
+            level,
+            x,
+            table.as_ptr(),
+            layout.rows,
+            &mut Gather::<T, F> {
+                table,
+                out_blocks,
+                layout,
+                c0,
+            },
+        );
     }
 
     /// Accumulates table gradients: `grad += Σ_p (d out_p / d params)ᵀ · d_out_p`.
@@ -805,67 +892,18 @@ impl<T: Real> HashGrid<T> {
     ) {
         let level = &self.levels[l];
         let c0 = col + l * F;
-        let (rs, cs) = (layout.row_stride, layout.col_stride);
-        let n = x.len();
-        let n_blocks = n.div_ceil(BLOCK);
-        let pts = |b: usize| &x[b * BLOCK..((b + 1) * BLOCK).min(n)];
-        let mut cells = [BlockCells::new(), BlockCells::new()];
-        if n_blocks > 0 {
-            cells[0].locate(level, pts(0));
-            if !level.dense {
-                cells[0].prefetch(g.as_ptr(), F, pts(0).len());
-            }
-        }
-        let (mut ob, mut or) = (0usize, 0usize);
-        for b in 0..n_blocks {
-            let (cur, next) = if b % 2 == 0 {
-                let (a, c) = cells.split_at_mut(1);
-                (&a[0], &mut c[0])
-            } else {
-                let (a, c) = cells.split_at_mut(1);
-                (&c[0], &mut a[0])
-            };
-            if b + 1 < n_blocks {
-                next.locate(level, pts(b + 1));
-                if !level.dense {
-                    next.prefetch(g.as_ptr(), F, pts(b + 1).len());
-                }
-                prefetch_rows(
-                    d_out_blocks,
-                    layout,
-                    (b + 1) * BLOCK,
-                    pts(b + 1).len(),
-                    c0,
-                    F,
-                );
-            }
-            for i in 0..pts(b).len() {
-                let blk = d_out_blocks[ob];
-                let o = or * rs + c0 * cs;
-                debug_assert!(o + (F - 1) * cs < blk.len());
-                let mut d = [T::ZERO; F];
-                for k in 0..F {
-                    // SAFETY: `check_blocks` bounded every row's encoding columns.
-                    d[k] = unsafe { *blk.get_unchecked(o + k * cs) };
-                }
-                for c in 0..8 {
-                    let e = cur.index[c][i] as usize * F;
-                    let w = cur.weight[c][i];
-                    debug_assert!(e + F <= g.len());
-                    // SAFETY: as in `encode_level_generic`, indices are below the
-                    // level's entry count and `g` holds `entries · F` values.
-                    let gv: &mut [T; F] = unsafe { &mut *(g.as_mut_ptr().add(e) as *mut [T; F]) };
-                    for k in 0..F {
-                        gv[k] += w * d[k];
-                    }
-                }
-                or += 1;
-                if or == layout.rows {
-                    or = 0;
-                    ob += 1;
-                }
-            }
-        }
+        walk_level::<T, F>(
+            level,
+            x,
+            g.as_ptr(),
+            layout.rows,
+            &mut Scatter::<T, F> {
+                g,
+                d_out_blocks,
+                layout,
+                c0,
+            },
+        );
     }
 
     /// The alternative scheme, kept for the benchmark's comparison: the points
