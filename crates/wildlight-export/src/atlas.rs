@@ -48,7 +48,8 @@ impl Default for AtlasOptions {
     }
 }
 
-/// The atlas size actually used (the page may be cropped in height).
+/// The atlas size: always `texture_size` square (power-of-two sizes stay
+/// power-of-two, so every engine can mip-map the maps).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AtlasSize {
     /// Texture width in texels.
@@ -119,10 +120,13 @@ pub fn unwrap(
             .map(|v| normals[v.xref as usize].normalize_or(Vec3::Z))
             .collect(),
         tangents: Vec::new(),
+        // uvunwrap crops its page to the rows it used (v grows with the
+        // row); the texture stays square, its last rows left to the gutter
+        // dilation, so v is rescaled from the cropped page to the full one.
         uvs: out
             .vertices
             .iter()
-            .map(|v| Vec2::from_array(v.uv))
+            .map(|v| Vec2::new(v.uv[0], v.uv[1] * atlas.height as f32 / atlas.width as f32))
             .collect(),
         triangles: out
             .indices
@@ -133,9 +137,9 @@ pub fn unwrap(
     add_tangents(&mut textured)?;
     let size = AtlasSize {
         width: atlas.width,
-        height: atlas.height,
+        height: atlas.width,
         charts: atlas.chart_count,
-        utilization: atlas.utilization,
+        utilization: atlas.utilization * atlas.height as f32 / atlas.width as f32,
     };
     Ok((textured, size))
 }
@@ -235,8 +239,8 @@ mod tests {
         let (mesh, size) = unwrap(&sphere, &options).unwrap();
         assert_eq!(mesh.triangles.len(), sphere.triangles.len());
         assert!(mesh.positions.len() >= sphere.positions.len());
-        assert_eq!(size.width, 256);
-        assert!(size.height <= 256 && size.utilization > 0.3, "{size:?}");
+        assert_eq!((size.width, size.height), (256, 256), "square, as asked");
+        assert!(size.utilization > 0.3, "{size:?}");
         for (t, n) in mesh.tangents.iter().zip(&mesh.normals) {
             assert!((t.truncate().length() - 1.0).abs() < 1e-4);
             assert!(t.truncate().dot(*n).abs() < 1e-4);
