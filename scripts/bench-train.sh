@@ -6,7 +6,10 @@
 # (appendix eq. 16, normalized frame), base-colour PSNR after scale
 # alignment, and novel-view PSNR with and without flash.
 #
-#   scripts/bench-train.sh [OUT_DIR] [BUDGET_MINUTES] [SNAPSHOT_MINUTES]
+#   scripts/bench-train.sh [OUT_DIR] [BUDGET_MINUTES] [SNAPSHOT_MINUTES] [EXTRA.toml]
+#
+# EXTRA.toml (optional) is appended to the run's configuration, to benchmark
+# a setting against the defaults.
 #
 # Prints one JSON line per snapshot and writes them to OUT_DIR/curve.jsonl;
 # peak memory of the training process is in OUT_DIR/train.time.
@@ -14,6 +17,7 @@ set -euo pipefail
 out=${1:-bench-train}
 budget=${2:-30}
 every=${3:-5}
+extra=${4:-}
 root=$(cd "$(dirname "$0")/.." && pwd)
 cargo build --release --quiet --manifest-path "$root/Cargo.toml" -p wildlight
 W="$root/target/release/wildlight"
@@ -26,6 +30,9 @@ run="$out/run"
 rm -rf "$run"
 # checkpoints often enough that a snapshot is never more than ~20 s old
 printf '[output]\ncheckpoint_every = 100\npreview_every = 1000\n' > "$out/bench.toml"
+if [ -n "$extra" ]; then
+  cat "$extra" >> "$out/bench.toml"
+fi
 /usr/bin/time -v -o "$out/train.time" \
   "$W" train --data "$cap" --out "$run" --config "$out/bench.toml" \
   --iters 100000 --time-budget "${budget}m" &

@@ -8,6 +8,7 @@
 //! - [`pipeline`]: one differentiable pass over a batch of rays;
 //! - [`ambient`]: the ambient term of a pass, in its two forms;
 //! - [`loss`]: the losses of SPEC §4;
+//! - [`smoothness`]: an optional smoothness prior on the material field;
 //! - [`trainer`]: the optimisation step, checkpoints;
 //! - [`render_view`]: rendering whole views and their maps;
 //! - [`preview`]: preview images;
@@ -24,6 +25,7 @@ pub mod preview;
 pub mod rays;
 pub mod render_view;
 pub mod run;
+pub mod smoothness;
 pub mod trainer;
 
 pub use config::TrainConfig;

@@ -305,6 +305,28 @@ impl<T: Float + Default> Pipeline<T> {
         &self.weights.acc_weight
     }
 
+    /// The expected hit point Σ w_k x_k / Σw of every ray of the last pass
+    /// whose Σw is at least `min_acc` (rays that meet the surface).
+    pub fn surface_points(&self, min_acc: f64) -> Vec<[T; 3]> {
+        let offsets = &self.samples.offsets;
+        (0..offsets.len().saturating_sub(1))
+            .filter_map(|r| {
+                let acc = self.weights.acc_weight[r];
+                if to_f64(acc) < min_acc {
+                    return None;
+                }
+                let mut p = [T::ZERO; 3];
+                for k in offsets[r] as usize..offsets[r + 1] as usize {
+                    let (w, x) = (self.weights.weight[k], self.samples.positions[k]);
+                    for a in 0..3 {
+                        p[a] += w * x[a];
+                    }
+                }
+                Some(p.map(|c| c / acc))
+            })
+            .collect()
+    }
+
     /// Backward pass of the last forward pass: `d_colour` = ∂L/∂C and
     /// `d_acc` = ∂L/∂(Σw) per ray; `eikonal_weight` scales the eikonal term
     /// (whose value is [`Pipeline::eikonal`]). ADDS into `grads`.

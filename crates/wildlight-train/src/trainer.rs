@@ -9,6 +9,7 @@ use crate::loss::{colour_l1, mask_bce, psnr};
 use crate::model::{Model, ModelGrads};
 use crate::pipeline::{PassSettings, Pipeline, RayInputs, eval_sdf};
 use crate::rays::{RayBatch, TrainingRays};
+use crate::smoothness::MaterialSmoothness;
 use anyhow::Context;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -31,6 +32,9 @@ pub struct StepStats {
     pub mask: f64,
     /// Eikonal residual.
     pub eikonal: f64,
+    /// The material smoothness prior's mean Σ_i δ_i over its pairs
+    /// (`crate::smoothness`; 0 when the prior is off).
+    pub smoothness: f64,
     /// PSNR of the batch's counted foreground channels (dB, peak 1).
     pub psnr: f64,
     /// NeuS sharpness s.
@@ -77,6 +81,7 @@ pub struct Trainer {
     pub grid: OccupancyGrid,
     /// The ray renderer's buffers.
     pub pipeline: Pipeline,
+    smoothness: MaterialSmoothness<f32>,
     rays: TrainingRays,
     adam: Adam<f32>,
     groups: Groups,
@@ -163,6 +168,7 @@ impl Trainer {
             skipped_steps: 0,
             grid,
             pipeline: Pipeline::new(sampler),
+            smoothness: MaterialSmoothness::default(),
             rays,
             adam,
             groups,
@@ -304,7 +310,6 @@ impl Trainer {
             0.0
         };
         let eikonal = self.pipeline.eikonal;
-        let loss = cfg.loss.color * color + cfg.loss.mask * mask + cfg.loss.eikonal * eikonal;
 
         self.grads.zero();
         self.pipeline.backward(
@@ -316,6 +321,12 @@ impl Trainer {
             &settings,
             &mut self.grads,
         );
+        let smoothness = self.material_smoothness(&mut rng);
+        let cfg = &self.config;
+        let loss = cfg.loss.color * color
+            + cfg.loss.mask * mask
+            + cfg.loss.eikonal * eikonal
+            + cfg.loss.material_smoothness * smoothness;
         let lr_factor = self.schedule.factor(step) * self.lr_scale;
         let skipped = !loss.is_finite() || !self.grads.all_finite();
         if skipped {
@@ -332,6 +343,7 @@ impl Trainer {
             color,
             mask,
             eikonal,
+            smoothness,
             psnr: psnr(mse, 1.0),
             s: self.model.s() as f64,
             gamma: self.model.gamma() as f64,
@@ -340,6 +352,30 @@ impl Trainer {
             occupied: self.grid.occupied_fraction() as f64,
             skipped,
         }
+    }
+
+    /// The material smoothness prior (crate::smoothness) on the surface
+    /// points of the last pass, each paired with a point offset uniformly
+    /// within `loss.smoothness_radius` per axis; adds its gradient. 0 when
+    /// off.
+    fn material_smoothness(&mut self, rng: &mut Pcg64) -> f64 {
+        let loss = &self.config.loss;
+        if loss.material_smoothness <= 0.0 {
+            return 0.0;
+        }
+        let centres = self.pipeline.surface_points(0.5);
+        let r = loss.smoothness_radius as f32;
+        let offsets: Vec<[f32; 3]> = centres
+            .iter()
+            .map(|_| [0; 3].map(|_| rng.random_range(-r..=r)))
+            .collect();
+        self.smoothness.forward_backward(
+            &self.model.material,
+            &centres,
+            &offsets,
+            loss.material_smoothness as f32,
+            &mut self.grads.material,
+        )
     }
 
     fn apply_adam(&mut self, f: f64) {

@@ -104,17 +104,27 @@ fn short_training_reduces_the_loss_and_fits_the_surface() {
 
 #[test]
 fn resumed_training_continues_exactly() {
-    check_resume(AmbientModel::Neural);
+    // The default material smoothness prior draws its pairs from the step's
+    // own random stream, so a resumed run still continues exactly.
+    check_resume(AmbientModel::Neural, DEFAULT_SMOOTHNESS);
 }
+
+#[test]
+fn resumed_training_without_the_material_smoothness_prior_continues_exactly() {
+    check_resume(AmbientModel::Neural, 0.0);
+}
+
+/// The default weight of the material smoothness prior.
+const DEFAULT_SMOOTHNESS: f64 = 0.05;
 
 /// The diffuse-specular ambient term's second field and its optimiser
 /// state survive a checkpoint too.
 #[test]
 fn resumed_training_with_the_diffuse_specular_ambient_continues_exactly() {
-    check_resume(AmbientModel::DiffuseSpecular);
+    check_resume(AmbientModel::DiffuseSpecular, DEFAULT_SMOOTHNESS);
 }
 
-fn check_resume(ambient_model: AmbientModel) {
+fn check_resume(ambient_model: AmbientModel, material_smoothness: f64) {
     let dir = tempfile::tempdir().unwrap();
     let dataset = capture(dir.path(), 6, 24);
     let pool = rayon::ThreadPoolBuilder::new()
@@ -126,10 +136,22 @@ fn check_resume(ambient_model: AmbientModel) {
         let mut config = small_config(n);
         config.batch_rays = 96;
         config.model.ambient_model = ambient_model;
+        config.loss.material_smoothness = material_smoothness;
         let mut straight = Trainer::new(config.clone(), TrainingRays::new(&dataset)).unwrap();
+        let mut smoothness = Vec::new();
         for _ in 0..n {
-            straight.step();
+            smoothness.push(straight.step().smoothness);
         }
+        // The prior runs exactly when it has a weight.
+        assert_eq!(
+            smoothness.iter().all(|s| *s > 0.0),
+            material_smoothness > 0.0,
+            "{smoothness:?}"
+        );
+        assert_eq!(
+            TrainConfig::default().loss.material_smoothness,
+            DEFAULT_SMOOTHNESS
+        );
 
         let ckpt = dir.path().join("half.safetensors");
         let mut first = Trainer::new(config.clone(), TrainingRays::new(&dataset)).unwrap();
@@ -147,6 +169,7 @@ fn check_resume(ambient_model: AmbientModel) {
         let (a, b) = (&straight.model, &second.model);
         assert_eq!(a.sdf.field.grid.params, b.sdf.field.grid.params);
         assert_eq!(a.sdf.field.mlp.params, b.sdf.field.mlp.params);
+        assert_eq!(a.material.grid.params, b.material.grid.params);
         assert_eq!(a.material.mlp.params, b.material.mlp.params);
         assert_eq!(a.ambient.grid.params, b.ambient.grid.params);
         assert_eq!(a.ambient.mlp.params, b.ambient.mlp.params);
