@@ -79,12 +79,20 @@ impl Frustum {
     /// `[-0.5, width - 0.5] × [-0.5, height - 0.5]` (pixel centres are at
     /// integer coordinates, SPEC §5).
     pub fn contains(&self, p: Vec3) -> bool {
+        self.project(p).is_some()
+    }
+
+    /// The pixel position (x, y) and depth w of `p` when it is in view (see
+    /// [`Frustum::contains`]).
+    fn project(&self, p: Vec3) -> Option<(f64, f64, f64)> {
         let h = self.projection * p.as_dvec3().extend(1.0);
         if h.z <= 0.0 {
-            return false;
+            return None;
         }
         let (x, y) = (h.x / h.z, h.y / h.z);
-        x >= -0.5 && y >= -0.5 && x <= self.width as f64 - 0.5 && y <= self.height as f64 - 0.5
+        let inside =
+            x >= -0.5 && y >= -0.5 && x <= self.width as f64 - 0.5 && y <= self.height as f64 - 0.5;
+        inside.then_some((x, y, h.z))
     }
 }
 
@@ -117,15 +125,19 @@ pub const DEPTH_TOLERANCE: f64 = 5e-4;
 /// the first triangle its ray meets (`f32::INFINITY` where it meets none),
 /// in the units of the frustum's homogeneous coordinate, so that a point
 /// `p` is compared through `w = (P·(p, 1)).z`.
-struct DepthImage {
-    width: usize,
-    height: usize,
+struct DepthImage<'a> {
+    frustum: &'a Frustum,
     depth: Vec<f32>,
 }
 
-impl DepthImage {
-    /// Casts one ray per pixel centre of `frustum` from `center` at `shape`.
-    fn render(shape: &parry3d::shape::TriMesh, center: DVec3, frustum: &Frustum) -> DepthImage {
+impl<'a> DepthImage<'a> {
+    /// Casts one ray per pixel centre of `frustum` (not empty) from
+    /// `center` at `shape`.
+    fn render(
+        shape: &parry3d::shape::TriMesh,
+        center: DVec3,
+        frustum: &'a Frustum,
+    ) -> DepthImage<'a> {
         let p = frustum.projection;
         // (u, v, w) = M·x + p₄ with M the left 3×3 block; the ray through
         // pixel (x, y) is C + t·M⁻¹(x, y, 1), and at parameter t its point
@@ -151,29 +163,24 @@ impl DepthImage {
                     .unwrap_or(f32::INFINITY)
             })
             .collect();
-        DepthImage {
-            width,
-            height,
-            depth,
-        }
+        DepthImage { frustum, depth }
     }
 
     /// Whether `p` projects into the image no deeper than the deepest of
     /// the four pixel centres around it, within [`DEPTH_TOLERANCE`].
-    fn sees(&self, frustum: &Frustum, p: Vec3) -> bool {
-        if !frustum.contains(p) {
+    fn sees(&self, p: Vec3) -> bool {
+        let Some((x, y, w)) = self.frustum.project(p) else {
             return false;
-        }
-        let h = frustum.projection * p.as_dvec3().extend(1.0);
-        let (x, y) = (h.x / h.z, h.y / h.z);
-        let x0 = (x.floor().max(0.0) as usize).min(self.width - 1);
-        let y0 = (y.floor().max(0.0) as usize).min(self.height - 1);
-        let (x1, y1) = ((x0 + 1).min(self.width - 1), (y0 + 1).min(self.height - 1));
+        };
+        let (width, height) = (self.frustum.width as usize, self.frustum.height as usize);
+        let x0 = (x.floor().max(0.0) as usize).min(width - 1);
+        let y0 = (y.floor().max(0.0) as usize).min(height - 1);
+        let (x1, y1) = ((x0 + 1).min(width - 1), (y0 + 1).min(height - 1));
         let deepest = [(x0, y0), (x1, y0), (x0, y1), (x1, y1)]
             .iter()
-            .map(|&(x, y)| self.depth[y * self.width + x])
+            .map(|&(x, y)| self.depth[y * width + x])
             .fold(0.0f32, f32::max) as f64;
-        h.z <= deepest * (1.0 + DEPTH_TOLERANCE)
+        w <= deepest * (1.0 + DEPTH_TOLERANCE)
     }
 }
 
@@ -211,6 +218,8 @@ pub fn visible_triangles(mesh: &TriMesh, viewpoints: &[Viewpoint]) -> Result<Vec
     let normals = mesh.face_normals();
     let orientation = closed_component_orientation(mesh);
     let centers: Vec<Vec3> = viewpoints.iter().map(|v| v.center.as_vec3()).collect();
+    // Cameras with an image are tested against their depth image, the
+    // others against exact rays (see the module documentation).
     let depth_images: Vec<Option<DepthImage>> = viewpoints
         .iter()
         .map(|v| {
@@ -241,9 +250,9 @@ pub fn visible_triangles(mesh: &TriMesh, viewpoints: &[Viewpoint]) -> Result<Vec
             candidates.into_iter().any(|c| {
                 TEST_POINTS.iter().any(|w| {
                     let p = w[0] * corners[0] + w[1] * corners[1] + w[2] * corners[2];
-                    match (&depth_images[c], &viewpoints[c].frustum) {
-                        (Some(image), Some(frustum)) => image.sees(frustum, p),
-                        _ => sees(&shape, &viewpoints[c], centers[c], p, tolerance),
+                    match &depth_images[c] {
+                        Some(image) => image.sees(p),
+                        None => sees(&shape, &viewpoints[c], centers[c], p, tolerance),
                     }
                 })
             })

@@ -108,6 +108,10 @@ pub fn unwrap(
         .meshes
         .first()
         .ok_or_else(|| ExportError::stage("UV unwrapping", "no output mesh"))?;
+    // uvunwrap crops its page to the rows it used (v grows with the row);
+    // the texture stays square, its last rows left to the gutter dilation,
+    // so v is rescaled from the cropped page to the full one.
+    let rows_used = atlas.height as f32 / atlas.width as f32;
     let mut textured = TexturedMesh {
         positions: out
             .vertices
@@ -120,13 +124,10 @@ pub fn unwrap(
             .map(|v| normals[v.xref as usize].normalize_or(Vec3::Z))
             .collect(),
         tangents: Vec::new(),
-        // uvunwrap crops its page to the rows it used (v grows with the
-        // row); the texture stays square, its last rows left to the gutter
-        // dilation, so v is rescaled from the cropped page to the full one.
         uvs: out
             .vertices
             .iter()
-            .map(|v| Vec2::new(v.uv[0], v.uv[1] * atlas.height as f32 / atlas.width as f32))
+            .map(|v| Vec2::new(v.uv[0], v.uv[1] * rows_used))
             .collect(),
         triangles: out
             .indices
@@ -139,7 +140,7 @@ pub fn unwrap(
         width: atlas.width,
         height: atlas.width,
         charts: atlas.chart_count,
-        utilization: atlas.utilization * atlas.height as f32 / atlas.width as f32,
+        utilization: atlas.utilization * rows_used,
     };
     Ok((textured, size))
 }
