@@ -137,6 +137,8 @@ fn mesh_file_with_constant_material() {
             "24",
             "--spp",
             "2",
+            "--val-spp",
+            "2",
             "--quiet",
         ])
         .args([

@@ -96,10 +96,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     prepare_out(&out)?;
     let progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
     let capture = out.join("capture");
-    let (views, size, spp) = if args.quick {
-        (24, 96, 16)
+    let (views, size, spp, val_spp) = if args.quick {
+        (24, 96, 16, 256)
     } else {
-        (64, 256, 64)
+        (64, 256, 64, 1024)
     };
     eprintln!("1/5 synthesizing the default capture ({views} views, {size}×{size}) …");
     synthesize(&SynthOptions {
@@ -111,6 +111,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             ..RigOptions::default()
         },
         spp,
+        val_spp,
         mesh_resolution: if args.quick { 96 } else { 160 },
         out: capture.clone(),
         overwrite: true,

@@ -75,9 +75,14 @@ pub struct Args {
     /// Exposure multiplier on all light; the written light_energy includes it.
     #[arg(long, default_value_t = 1.0)]
     pub exposure: f64,
-    /// Ambient Monte Carlo samples per pixel.
+    /// Ambient Monte Carlo samples per pixel of the training views.
     #[arg(long, default_value_t = 64)]
     pub spp: usize,
+    /// Ambient Monte Carlo samples per pixel of the held-out views in val/,
+    /// the references of `wildlight eval images` (rendered without sensor
+    /// noise, so the metric measures the reconstruction, not the noise).
+    #[arg(long, default_value_t = 1024)]
+    pub val_spp: usize,
     /// Environment map (equirectangular .exr or .hdr, +y up)
     /// [default: a procedural sky with a sun].
     #[arg(long, value_name = "FILE")]
@@ -168,6 +173,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         material,
         rig,
         spp: args.spp,
+        val_spp: args.val_spp,
         env: args.env,
         env_strength: args.env_strength,
         mesh_resolution: args.mesh_resolution,

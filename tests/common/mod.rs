@@ -28,7 +28,7 @@ pub fn path_arg(p: &Path) -> &str {
 /// The size of the tiny synthetic capture the CLI tests use: 4 training
 /// views and 1 validation view of 32×32 pixels at 4 samples per pixel, and
 /// a ground-truth mesh extracted at resolution 48.
-pub const TINY_CAPTURE_ARGS: [&str; 12] = [
+pub const TINY_CAPTURE_ARGS: [&str; 14] = [
     "--views",
     "4",
     "--val-views",
@@ -38,6 +38,8 @@ pub const TINY_CAPTURE_ARGS: [&str; 12] = [
     "--height",
     "32",
     "--spp",
+    "4",
+    "--val-spp",
     "4",
     "--mesh-resolution",
     "48",

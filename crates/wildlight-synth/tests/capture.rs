@@ -28,6 +28,7 @@ fn small_options(out: &Path, scene: BuiltinScene) -> SynthOptions {
             ..RigOptions::default()
         },
         spp: 4,
+        val_spp: 4,
         mesh_resolution: 64,
         // full HDR: the flash term is compared exactly, highlights included
         saturation: None,
@@ -55,6 +56,7 @@ fn ground_truth_mesh_projects_into_the_mask_and_covers_it() {
         opts.rig.width = 256;
         opts.rig.height = 224;
         opts.spp = 1;
+        opts.val_spp = 1;
         synthesize(&opts).unwrap();
         let mesh = TriMesh::read(out.join("gt/mesh_normalized.ply")).unwrap();
         let world = TriMesh::read(out.join("gt/mesh_world.ply")).unwrap();
@@ -368,4 +370,88 @@ fn noise_saturation_and_determinism() {
     let amb_a = read_exr_rgb(&dir.path().join("a/gt/ambient/000.exr")).unwrap();
     let amb_n = read_exr_rgb(&dir.path().join("n/gt/ambient/000.exr")).unwrap();
     assert_eq!(amb_a, amb_n, "ground truth is noise free");
+}
+
+/// Mean absolute difference between horizontally adjacent pixels of the
+/// masked object: Monte Carlo noise raises it.
+fn roughness_of(img: &RgbImage, mask: &[bool]) -> f64 {
+    let w = img.width as usize;
+    let (mut sum, mut n) = (0.0f64, 0usize);
+    for i in 0..img.pixel_count() {
+        if i % w + 1 < w && mask[i] && mask[i + 1] {
+            for c in 0..3 {
+                sum += (img.data[3 * i + c] - img.data[3 * (i + 1) + c]).abs() as f64;
+            }
+            n += 1;
+        }
+    }
+    sum / n.max(1) as f64
+}
+
+/// Held-out views are references: rendered with `val_spp` samples and no
+/// sensor noise, so their photo is exactly the clipped sum of the
+/// ground-truth ambient and flash maps, and more samples make it smoother;
+/// the training photos keep `spp` and the noise.
+#[test]
+fn held_out_views_are_noise_free_references_at_val_spp() {
+    let dir = tempfile::tempdir().unwrap();
+    let render = |name: &str, val_spp: usize| {
+        let out = dir.path().join(name);
+        let mut opts = small_options(&out, BuiltinScene::Kettle);
+        opts.rig.views = 2;
+        opts.rig.val_views = 2;
+        opts.spp = 1;
+        opts.val_spp = val_spp;
+        opts.noise = 0.05;
+        opts.saturation = Some(1.0);
+        synthesize(&opts).unwrap();
+        out
+    };
+    let coarse = render("coarse", 1);
+    let fine = render("fine", 64);
+    let maps = |dir: &Path, split: &str, i: usize| {
+        let sub = if split == "val" {
+            dir.join("val")
+        } else {
+            dir.to_path_buf()
+        };
+        let read = |kind: &str| {
+            let path = if kind == "image" {
+                sub.join(format!("image/{i:03}.exr"))
+            } else {
+                sub.join(format!("gt/{kind}/{i:03}.exr"))
+            };
+            read_exr_rgb(&path).unwrap()
+        };
+        (read("image"), read("ambient"), read("flash"))
+    };
+    let data = load(&fine);
+    let val = data.val.as_ref().expect("val split");
+    let mut smoother = 0;
+    for (k, view) in val.views.iter().enumerate() {
+        let (image, ambient, flash) = maps(&fine, "val", view.camera.index);
+        for ((p, a), f) in image.data.iter().zip(&ambient.data).zip(&flash.data) {
+            let expected = (a + f).clamp(0.0, 1.0);
+            assert!((p - expected).abs() < 1e-5, "val photo {p} vs {expected}");
+        }
+        let mask = val.views[k].mask.as_ref().expect("mask").data.clone();
+        let (_, coarse_ambient, _) = maps(&coarse, "val", view.camera.index);
+        if roughness_of(&ambient, &mask) < 0.8 * roughness_of(&coarse_ambient, &mask) {
+            smoother += 1;
+        }
+    }
+    assert_eq!(
+        smoother,
+        val.views.len(),
+        "64 samples must be smoother than 1"
+    );
+    // The training photos keep the sensor noise.
+    let (image, ambient, flash) = maps(&fine, "train", data.views[0].camera.index);
+    let noisy = image
+        .data
+        .iter()
+        .zip(ambient.data.iter().zip(&flash.data))
+        .filter(|(p, (a, f))| (*p - (*a + *f).clamp(0.0, 1.0)).abs() > 1e-4)
+        .count();
+    assert!(noisy > 100, "only {noisy} noisy training pixels");
 }

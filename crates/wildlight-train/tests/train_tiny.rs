@@ -20,6 +20,7 @@ fn capture(dir: &Path, views: usize, size: u32) -> Dataset {
             ..RigOptions::default()
         },
         spp: 4,
+        val_spp: 4,
         mesh_resolution: 64,
         out: dir.to_path_buf(),
         progress: false,
