@@ -100,6 +100,15 @@ fn specular_field<T: Float>(model: &Model<T>) -> Option<&NeuralField<T>> {
     }
 }
 
+/// The spherical harmonics of `d` with the bands from `bands` up held at
+/// zero (bands 0..`bands` kept: their first `bands`² functions).
+#[inline]
+fn sh_bands<T: Float>(d: [T; 3], bands: usize) -> [T; SH_DEG4_LEN] {
+    let mut sh = sh_deg4(d);
+    sh[bands * bands..].fill(T::ZERO);
+    sh
+}
+
 /// The mirror image of `d` about the unit normal `n`: d − 2(d·n)n.
 #[inline]
 fn reflect<T: Float>(d: [T; 3], n: [T; 3]) -> [T; 3] {
@@ -121,6 +130,7 @@ impl<T: Float + Default> AmbientPass<T> {
         let specular = specular_field(model);
         let split = specular.is_some();
         let reflected = config.ambient_direction == AmbientDirection::Reflected;
+        let bands = config.ambient_sh_bands;
         self.extra.clear();
         self.extra
             .reserve(n * ambient_extra_inputs(config.ambient_model, nf));
@@ -129,10 +139,10 @@ impl<T: Float + Default> AmbientPass<T> {
             self.specular_extra.reserve(n * SPECULAR_EXTRA_INPUTS);
         }
         for (ray, &d) in inputs.ray_dirs.iter().enumerate() {
-            let view_sh: Option<[T; SH_DEG4_LEN]> = (!reflected).then(|| sh_deg4(d));
+            let view_sh: Option<[T; SH_DEG4_LEN]> = (!reflected).then(|| sh_bands(d, bands));
             for k in inputs.offsets[ray] as usize..inputs.offsets[ray + 1] as usize {
                 let nrm = inputs.normals[k];
-                let sh = view_sh.unwrap_or_else(|| sh_deg4(reflect(d, nrm)));
+                let sh = view_sh.unwrap_or_else(|| sh_bands(reflect(d, nrm), bands));
                 self.extra
                     .extend_from_slice(&inputs.features[k * nf..(k + 1) * nf]);
                 self.extra.extend_from_slice(&nrm);
@@ -286,9 +296,11 @@ impl<T: Float + Default> AmbientPass<T> {
                 if reflected {
                     // ω = d − 2(d·n)n: ∂ω/∂n = −2 (n dᵀ + (d·n) I)
                     let nrm = inputs.normals[k];
+                    // (the bands held at zero pass no gradient)
                     let jac = sh_deg4_jacobian(reflect(d, nrm));
                     let mut d_r = [T::ZERO; 3];
-                    for (jrow, g) in jac.iter().zip(d_sh) {
+                    let kept = config.ambient_sh_bands * config.ambient_sh_bands;
+                    for (jrow, g) in jac.iter().zip(d_sh).take(kept) {
                         for a in 0..3 {
                             d_r[a] += *g * jrow[a];
                         }

@@ -69,6 +69,11 @@ pub struct LossConfig {
     /// Largest offset of the smoothness pairs, per axis (normalized units;
     /// offsets are uniform in ±this).
     pub smoothness_radius: f64,
+    /// Weight λ of the normal smoothness prior (`crate::normal_smoothness`;
+    /// the project's addition to SPEC §4): the mean pseudo-Huber difference
+    /// of the unit normals between the same pairs of points as the material
+    /// prior. 0 turns it off.
+    pub normal_smoothness: f64,
 }
 
 impl Default for LossConfig {
@@ -79,6 +84,7 @@ impl Default for LossConfig {
             mask: 1.0,
             material_smoothness: 0.05,
             smoothness_radius: 0.01,
+            normal_smoothness: 0.0,
         }
     }
 }
@@ -197,6 +203,12 @@ pub struct ModelConfig {
     pub ambient_direction: AmbientDirection,
     /// How the ambient term is formed from its fields and Θ.
     pub ambient_model: AmbientModel,
+    /// Spherical-harmonics bands of the ambient direction input, 1–4 (band
+    /// l has 2l + 1 functions; 4 bands are the 16 inputs of the encoding).
+    /// The inputs of the bands above are held at zero. Fewer bands give
+    /// the ambient field less view dependence to fit the noise of single
+    /// photos with.
+    pub ambient_sh_bands: usize,
     /// The room-reflection field E_s of [`AmbientModel::DiffuseSpecular`]
     /// (unused by [`AmbientModel::Neural`]). Its hash grid should stay
     /// coarse: one room is reflected by every part of the object, and a
@@ -282,6 +294,7 @@ impl Default for ModelConfig {
             ambient_trains_material: true,
             ambient_direction: AmbientDirection::Reflected,
             ambient_model: AmbientModel::Neural,
+            ambient_sh_bands: 4,
             ambient_specular: FieldSize {
                 levels: 3,
                 features_per_level: 2,
@@ -409,6 +422,9 @@ impl TrainConfig {
             ("loss.color", self.loss.color),
             ("loss.eikonal", self.loss.eikonal),
             ("loss.mask", self.loss.mask),
+            ("loss.material_smoothness", self.loss.material_smoothness),
+            ("loss.smoothness_radius", self.loss.smoothness_radius),
+            ("loss.normal_smoothness", self.loss.normal_smoothness),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return bad(name, "must be finite and ≥ 0");
@@ -431,6 +447,9 @@ impl TrainConfig {
             .any(|v| !(*v > 0.0 && *v < 1.0))
         {
             return bad("model.init_material", "every value must be in (0, 1)");
+        }
+        if !(1..=4).contains(&self.model.ambient_sh_bands) {
+            return bad("model.ambient_sh_bands", "must be 1, 2, 3 or 4");
         }
         if self.sampling.grid_refresh_every == 0 {
             return bad("sampling.grid_refresh_every", "must be at least 1");

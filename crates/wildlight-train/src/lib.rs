@@ -9,6 +9,7 @@
 //! - [`ambient`]: the ambient term of a pass, in its two forms;
 //! - [`loss`]: the losses of SPEC §4;
 //! - [`smoothness`]: an optional smoothness prior on the material field;
+//! - [`normal_smoothness`]: an optional smoothness prior on the normals;
 //! - [`trainer`]: the optimisation step, checkpoints;
 //! - [`render_view`]: rendering whole views and their maps;
 //! - [`preview`]: preview images;
@@ -20,6 +21,7 @@ pub mod float;
 pub mod inference;
 pub mod loss;
 pub mod model;
+pub mod normal_smoothness;
 pub mod pipeline;
 pub mod preview;
 pub mod rays;

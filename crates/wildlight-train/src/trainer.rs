@@ -7,6 +7,7 @@
 use crate::config::TrainConfig;
 use crate::loss::{colour_l1, mask_bce, psnr};
 use crate::model::{Model, ModelGrads};
+use crate::normal_smoothness::NormalSmoothness;
 use crate::pipeline::{PassSettings, Pipeline, RayInputs, eval_sdf};
 use crate::rays::{RayBatch, TrainingRays};
 use crate::smoothness::MaterialSmoothness;
@@ -35,6 +36,9 @@ pub struct StepStats {
     /// The material smoothness prior's mean Σ_i δ_i over its pairs
     /// (`crate::smoothness`; 0 when the prior is off).
     pub smoothness: f64,
+    /// The normal smoothness prior's mean pseudo-Huber difference over its
+    /// pairs (`crate::normal_smoothness`; 0 when the prior is off).
+    pub normal_smoothness: f64,
     /// PSNR of the batch's counted foreground channels (dB, peak 1).
     pub psnr: f64,
     /// NeuS sharpness s.
@@ -82,6 +86,7 @@ pub struct Trainer {
     /// The ray renderer's buffers.
     pub pipeline: Pipeline,
     smoothness: MaterialSmoothness<f32>,
+    normal_smoothness: NormalSmoothness<f32>,
     rays: TrainingRays,
     adam: Adam<f32>,
     groups: Groups,
@@ -169,6 +174,7 @@ impl Trainer {
             grid,
             pipeline: Pipeline::new(sampler),
             smoothness: MaterialSmoothness::default(),
+            normal_smoothness: NormalSmoothness::default(),
             rays,
             adam,
             groups,
@@ -321,12 +327,13 @@ impl Trainer {
             &settings,
             &mut self.grads,
         );
-        let smoothness = self.material_smoothness(&mut rng);
+        let (smoothness, normal_smoothness) = self.smoothness_priors(&mut rng, settings.fd_step);
         let cfg = &self.config;
         let loss = cfg.loss.color * color
             + cfg.loss.mask * mask
             + cfg.loss.eikonal * eikonal
-            + cfg.loss.material_smoothness * smoothness;
+            + cfg.loss.material_smoothness * smoothness
+            + cfg.loss.normal_smoothness * normal_smoothness;
         let lr_factor = self.schedule.factor(step) * self.lr_scale;
         let skipped = !loss.is_finite() || !self.grads.all_finite();
         if skipped {
@@ -344,6 +351,7 @@ impl Trainer {
             mask,
             eikonal,
             smoothness,
+            normal_smoothness,
             psnr: psnr(mse, 1.0),
             s: self.model.s() as f64,
             gamma: self.model.gamma() as f64,
@@ -354,14 +362,17 @@ impl Trainer {
         }
     }
 
-    /// The material smoothness prior (crate::smoothness) on the surface
+    /// The smoothness priors on the material field (crate::smoothness)
+    /// and on the normals (crate::normal_smoothness), over the surface
     /// points of the last pass, each paired with a point offset uniformly
-    /// within `loss.smoothness_radius` per axis; adds its gradient. 0 when
-    /// off.
-    fn material_smoothness(&mut self, rng: &mut Pcg64) -> f64 {
+    /// within `loss.smoothness_radius` per axis; adds their gradients and
+    /// returns their unweighted values (0 for a prior that is off). The
+    /// offsets are drawn only when a prior is on, so a run with both off
+    /// draws the same random numbers as before they existed.
+    fn smoothness_priors(&mut self, rng: &mut Pcg64, fd_step: f64) -> (f64, f64) {
         let loss = &self.config.loss;
-        if loss.material_smoothness <= 0.0 {
-            return 0.0;
+        if loss.material_smoothness <= 0.0 && loss.normal_smoothness <= 0.0 {
+            return (0.0, 0.0);
         }
         let centres = self.pipeline.surface_points(0.5);
         let r = loss.smoothness_radius as f32;
@@ -369,13 +380,30 @@ impl Trainer {
             .iter()
             .map(|_| [0; 3].map(|_| rng.random_range(-r..=r)))
             .collect();
-        self.smoothness.forward_backward(
-            &self.model.material,
-            &centres,
-            &offsets,
-            loss.material_smoothness as f32,
-            &mut self.grads.material,
-        )
+        let material = if loss.material_smoothness > 0.0 {
+            self.smoothness.forward_backward(
+                &self.model.material,
+                &centres,
+                &offsets,
+                loss.material_smoothness as f32,
+                &mut self.grads.material,
+            )
+        } else {
+            0.0
+        };
+        let normal = if loss.normal_smoothness > 0.0 {
+            self.normal_smoothness.forward_backward(
+                &self.model.sdf,
+                &centres,
+                &offsets,
+                fd_step,
+                loss.normal_smoothness as f32,
+                &mut self.grads.sdf,
+            )
+        } else {
+            0.0
+        };
+        (material, normal)
     }
 
     fn apply_adam(&mut self, f: f64) {
