@@ -65,7 +65,7 @@ fi
 for snap in "$out"/snap_*; do
   "$W" render --run "$snap" --data "$cap" --split val --out "$snap/render-val" --quiet > "$snap/render.log" 2>&1
   "$W" export --run "$snap" --out "$snap/asset" --normalized --resolution 256 --faces 65536 \
-    --texture 256 --quiet > "$snap/export.log" 2>&1
+    --texture 1024 --quiet > "$snap/export.log" 2>&1
   "$W" eval mesh --pred "$snap/asset/mesh_raw.ply" --gt "$cap/gt/mesh_normalized.ply" \
     --cameras "$cap" --frame normalized --json > "$snap/mesh.json"
   "$W" eval materials --pred "$snap/render-val" --gt "$cap" --split val --json > "$snap/materials.json"

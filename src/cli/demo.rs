@@ -99,7 +99,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (views, size, spp, val_spp) = if args.quick {
         (24, 96, 16, 256)
     } else {
-        (64, 256, 64, 1024)
+        (64, 256, 256, 1024)
     };
     eprintln!("1/5 synthesizing the default capture ({views} views, {size}×{size}) …");
     synthesize(&SynthOptions {

@@ -76,7 +76,7 @@ pub struct Args {
     #[arg(long, default_value_t = 1.0)]
     pub exposure: f64,
     /// Ambient Monte Carlo samples per pixel of the training views.
-    #[arg(long, default_value_t = 64)]
+    #[arg(long, default_value_t = 256)]
     pub spp: usize,
     /// Ambient Monte Carlo samples per pixel of the held-out views in val/,
     /// the references of `wildlight eval images` (rendered without sensor

