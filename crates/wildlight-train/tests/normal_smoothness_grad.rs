@@ -2,29 +2,14 @@
 //! the SDF's finite-difference normals, and its parameter gradient against
 //! central finite differences in f64.
 
+mod common;
+
 use wildlight_fields::{FdScheme, NormalContext};
-use wildlight_train::config::{FieldSize, ModelConfig};
 use wildlight_train::model::Model;
 use wildlight_train::normal_smoothness::{HUBER_ETA, NormalSmoothness, pseudo_huber};
 
 fn tiny_sdf_model() -> Model<f64> {
-    let size = FieldSize {
-        levels: 2,
-        features_per_level: 2,
-        log2_table_size: 6,
-        base_resolution: 3,
-        finest_resolution: 9,
-        hidden: vec![8],
-        interpolation: Default::default(),
-    };
-    let config = ModelConfig {
-        sdf: size.clone(),
-        material: size.clone(),
-        ambient: size,
-        geometry_features: 3,
-        ..ModelConfig::default()
-    };
-    let mut model = Model::<f64>::new(&config, 5).unwrap();
+    let mut model = common::tiny_model(5);
     // Bumps on the initial sphere, so the normals turn between the points.
     for (i, v) in model.sdf.field.grid.params.iter_mut().enumerate() {
         *v = 0.3 * (i as f64 * 0.61).sin();
@@ -100,51 +85,12 @@ fn pseudo_huber_is_quadratic_below_eta_and_linear_above() {
     assert!((d[1] - 1.0).abs() < 1e-4 && d[0] == 0.0, "{d:?}");
 }
 
-/// Parameter `i` of the SDF field's hash table (group 0) or MLP (1).
-fn param(m: &mut Model<f64>, group: usize, i: usize) -> &mut f64 {
-    if group == 0 {
-        &mut m.sdf.field.grid.params[i]
-    } else {
-        &mut m.sdf.field.mlp.params[i]
-    }
-}
-
 #[test]
 fn normal_smoothness_gradient_matches_finite_differences() {
     let mut model = tiny_sdf_model();
     let mut grads = model.sdf.new_grads();
     loss(&model, Some(&mut grads));
-    let h = 1e-6;
-    let mut probed = 0;
-    for group in 0..2 {
-        let len = if group == 0 {
-            model.sdf.field.grid.params.len()
-        } else {
-            model.sdf.field.mlp.params.len()
-        };
-        for i in (0..len).step_by((len / 25).max(1)) {
-            let analytic = if group == 0 {
-                grads.grid[i]
-            } else {
-                grads.mlp[i]
-            };
-            let v = *param(&mut model, group, i);
-            *param(&mut model, group, i) = v + h;
-            let up = loss(&model, None);
-            *param(&mut model, group, i) = v - h;
-            let down = loss(&model, None);
-            *param(&mut model, group, i) = v;
-            let numeric = (up - down) / (2.0 * h);
-            let scale = analytic.abs().max(numeric.abs()).max(1e-6);
-            assert!(
-                (analytic - numeric).abs() / scale < 1e-4,
-                "{} parameter {i}: analytic {analytic:e} vs finite difference {numeric:e}",
-                ["grid", "mlp"][group]
-            );
-            if analytic.abs() > 1e-6 {
-                probed += 1;
-            }
-        }
-    }
+    let probed =
+        common::check_field_gradient(&mut model, |m| &mut m.sdf.field, &grads, |m| loss(m, None));
     assert!(probed >= 10, "only {probed} parameters had a gradient");
 }

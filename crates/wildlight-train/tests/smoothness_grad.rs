@@ -2,28 +2,13 @@
 //! scale, and its parameter gradient against central finite differences in
 //! f64.
 
-use wildlight_train::config::{FieldSize, ModelConfig};
+mod common;
+
 use wildlight_train::model::Model;
 use wildlight_train::smoothness::MaterialSmoothness;
 
 fn tiny_material_model() -> Model<f64> {
-    let size = FieldSize {
-        levels: 2,
-        features_per_level: 2,
-        log2_table_size: 6,
-        base_resolution: 3,
-        finest_resolution: 9,
-        hidden: vec![8],
-        interpolation: Default::default(),
-    };
-    let config = ModelConfig {
-        sdf: size.clone(),
-        material: size.clone(),
-        ambient: size,
-        geometry_features: 3,
-        ..ModelConfig::default()
-    };
-    let mut model = Model::<f64>::new(&config, 11).unwrap();
+    let mut model = common::tiny_model(11);
     // Tables away from their tiny initial values, so Θ varies in space.
     for (i, v) in model.material.grid.params.iter_mut().enumerate() {
         *v = 0.4 * (i as f64 * 0.77).sin();
@@ -99,51 +84,12 @@ fn flash_scaling_parameters_are_compared_relatively() {
     assert!((d1 - 0.3).abs() < 1e-12 && (d2 - 0.03).abs() < 1e-12);
 }
 
-/// Parameter `i` of the material field's hash table (group 0) or MLP (1).
-fn param(m: &mut Model<f64>, group: usize, i: usize) -> &mut f64 {
-    if group == 0 {
-        &mut m.material.grid.params[i]
-    } else {
-        &mut m.material.mlp.params[i]
-    }
-}
-
 #[test]
 fn smoothness_gradient_matches_finite_differences() {
     let mut model = tiny_material_model();
     let mut grads = model.material.new_grads();
     loss(&model, Some(&mut grads));
-    let h = 1e-6;
-    let mut probed = 0;
-    for group in 0..2 {
-        let len = if group == 0 {
-            model.material.grid.params.len()
-        } else {
-            model.material.mlp.params.len()
-        };
-        for i in (0..len).step_by((len / 25).max(1)) {
-            let analytic = if group == 0 {
-                grads.grid[i]
-            } else {
-                grads.mlp[i]
-            };
-            let v = *param(&mut model, group, i);
-            *param(&mut model, group, i) = v + h;
-            let up = loss(&model, None);
-            *param(&mut model, group, i) = v - h;
-            let down = loss(&model, None);
-            *param(&mut model, group, i) = v;
-            let numeric = (up - down) / (2.0 * h);
-            let scale = analytic.abs().max(numeric.abs()).max(1e-6);
-            assert!(
-                (analytic - numeric).abs() / scale < 1e-4,
-                "{} parameter {i}: analytic {analytic:e} vs finite difference {numeric:e}",
-                ["grid", "mlp"][group]
-            );
-            if analytic.abs() > 1e-6 {
-                probed += 1;
-            }
-        }
-    }
+    let probed =
+        common::check_field_gradient(&mut model, |m| &mut m.material, &grads, |m| loss(m, None));
     assert!(probed >= 10, "only {probed} parameters had a gradient");
 }

@@ -1,0 +1,80 @@
+//! Helpers shared by the gradient tests.
+
+use wildlight_fields::{FieldGrads, NeuralField};
+use wildlight_train::config::{FieldSize, ModelConfig};
+use wildlight_train::model::Model;
+
+/// A model whose three fields have two hash levels (3 and 9 cells), a
+/// 64-entry table and one hidden layer of 8, in f64.
+pub fn tiny_model(seed: u64) -> Model<f64> {
+    let size = FieldSize {
+        levels: 2,
+        features_per_level: 2,
+        log2_table_size: 6,
+        base_resolution: 3,
+        finest_resolution: 9,
+        hidden: vec![8],
+        interpolation: Default::default(),
+    };
+    let config = ModelConfig {
+        sdf: size.clone(),
+        material: size.clone(),
+        ambient: size,
+        geometry_features: 3,
+        ..ModelConfig::default()
+    };
+    Model::<f64>::new(&config, seed).unwrap()
+}
+
+/// Entry `i` of the hash table (group 0) or the MLP (group 1) of the field
+/// that `field` picks from the model.
+fn entry(
+    model: &mut Model<f64>,
+    field: fn(&mut Model<f64>) -> &mut NeuralField<f64>,
+    group: usize,
+    i: usize,
+) -> &mut f64 {
+    let f = field(model);
+    if group == 0 {
+        &mut f.grid.params[i]
+    } else {
+        &mut f.mlp.params[i]
+    }
+}
+
+/// Checks the gradient `grads` of `loss` with respect to the hash table
+/// and the MLP of the field that `field` picks from the model, against
+/// central differences (step 1e-6, relative tolerance 1e-4) on about 25
+/// entries of each. Returns how many of them had a gradient above 1e-6.
+pub fn check_field_gradient(
+    model: &mut Model<f64>,
+    field: fn(&mut Model<f64>) -> &mut NeuralField<f64>,
+    grads: &FieldGrads<f64>,
+    loss: impl Fn(&Model<f64>) -> f64,
+) -> usize {
+    let h = 1e-6;
+    let mut probed = 0;
+    for (group, analytic) in [(0, &grads.grid), (1, &grads.mlp)] {
+        let len = analytic.len();
+        for i in (0..len).step_by((len / 25).max(1)) {
+            let v = *entry(model, field, group, i);
+            *entry(model, field, group, i) = v + h;
+            let up = loss(model);
+            *entry(model, field, group, i) = v - h;
+            let down = loss(model);
+            *entry(model, field, group, i) = v;
+            let numeric = (up - down) / (2.0 * h);
+            let a = analytic[i];
+            let scale = a.abs().max(numeric.abs()).max(1e-6);
+            assert!(
+                (a - numeric).abs() / scale < 1e-4,
+                "{} parameter {i}: analytic {a:e} vs finite difference {numeric:e}",
+                ["grid", "mlp"][group]
+            );
+            if a.abs() > 1e-6 {
+                probed += 1;
+            }
+        }
+    }
+    probed
+}
