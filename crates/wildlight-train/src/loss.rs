@@ -1,5 +1,6 @@
 //! The training losses of SPEC §4 with their gradients.
 
+use crate::float::sign;
 /// Clamp of the accumulated weight inside the mask cross-entropy (SPEC §4).
 pub const MASK_CLAMP: f32 = 1e-3;
 
@@ -34,15 +35,7 @@ pub fn colour_l1(
     for ((d, (p, t)), &c) in d_pred.iter_mut().zip(pred.iter().zip(target)).zip(counts) {
         for ch in 0..3 {
             d[ch] = if c && !saturated(p[ch], t[ch], cap) {
-                let e = p[ch] - t[ch];
-                let sign = if e > 0.0 {
-                    1.0
-                } else if e < 0.0 {
-                    -1.0
-                } else {
-                    0.0
-                };
-                weight * sign * inv as f32
+                weight * sign(p[ch] - t[ch]) * inv as f32
             } else {
                 0.0
             };

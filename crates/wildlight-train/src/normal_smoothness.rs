@@ -21,7 +21,7 @@
 //! welcome when measured to help. Its weight is `loss.normal_smoothness`; 0
 //! turns it off.
 
-use crate::float::{Float, dot3, of, sqrt, to_f64};
+use crate::float::{Float, dot3, of, sqrt, to_f64, unit3, unit3_backward};
 use crate::smoothness::pair_points;
 use wildlight_fields::{FdScheme, FieldGrads, NormalContext, SdfField};
 
@@ -73,15 +73,15 @@ impl<T: Float + Default> NormalSmoothness<T> {
         let (gn, gf) = self.ctx.gradient.split_at(m);
         let (d_near, d_far) = self.d_gradient.split_at_mut(m);
         for (((ga, gb), da), db) in gn.iter().zip(gf).zip(d_near).zip(d_far) {
-            let (na, inv_a) = unit(*ga);
-            let (nb, inv_b) = unit(*gb);
+            let (na, len_a) = unit3(*ga);
+            let (nb, len_b) = unit3(*gb);
             let d = [na[0] - nb[0], na[1] - nb[1], na[2] - nb[2]];
             let (rho, u) = pseudo_huber(d);
             sum += to_f64(rho);
-            // ∂ρ/∂n_a = u, ∂ρ/∂n_b = −u; through n = g/|g|:
-            // ∂ρ/∂g = (I − n nᵀ) ∂ρ/∂n / |g|.
-            *da = project_out(u, na, scale * inv_a);
-            *db = project_out(u.map(|v| -v), nb, scale * inv_b);
+            // ∂ρ/∂n_a = u, ∂ρ/∂n_b = −u, then through n = g/|g|.
+            let u = u.map(|v| scale * v);
+            *da = unit3_backward(u, na, len_a);
+            *db = unit3_backward(u.map(|v| -v), nb, len_b);
         }
         self.d_sdf.clear();
         self.d_sdf.resize(2 * m, T::ZERO);
@@ -97,23 +97,4 @@ impl<T: Float + Default> NormalSmoothness<T> {
         );
         sum / m as f64
     }
-}
-
-/// g/|g| and 1/|g| (zero for a vanishing gradient).
-#[inline]
-fn unit<T: Float>(g: [T; 3]) -> ([T; 3], T) {
-    let len = sqrt(dot3(g, g));
-    if len > of::<T>(1e-12) {
-        let inv = T::ONE / len;
-        (g.map(|v| v * inv), inv)
-    } else {
-        ([T::ZERO; 3], T::ZERO)
-    }
-}
-
-/// k · (v − n (n·v)).
-#[inline]
-fn project_out<T: Float>(v: [T; 3], n: [T; 3], k: T) -> [T; 3] {
-    let along = dot3(n, v);
-    [0, 1, 2].map(|i| k * (v[i] - n[i] * along))
 }

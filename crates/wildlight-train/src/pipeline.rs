@@ -13,7 +13,7 @@
 //! Buffers are kept between calls; nothing is allocated per sample.
 
 use crate::ambient::{AmbientInputGrads, AmbientInputs, AmbientPass};
-use crate::float::{Float, dot3, finite, max, norm3, of, to_f64};
+use crate::float::{Float, finite, norm3, of, safe_norm3, to_f64, unit3, unit3_backward};
 use crate::model::{Model, ModelGrads};
 use wildlight_fields::{FdScheme, FieldContext, NormalContext};
 use wildlight_material::PARAM_COUNT;
@@ -245,10 +245,8 @@ impl<T: Float + Default> Pipeline<T> {
 
         // Unit normals n = ∇φ/|∇φ| and the ambient term (crate::ambient).
         self.normals.clear();
-        self.normals.extend(ctx.gradient[..n].iter().map(|&g| {
-            let len = max(norm3(g), of(1e-12));
-            [g[0] / len, g[1] / len, g[2] / len]
-        }));
+        self.normals
+            .extend(ctx.gradient[..n].iter().map(|&g| unit3(g).0));
         self.ambient_pass.forward(
             model,
             &ambient_inputs(&self.samples, ctx, rays, &self.normals, &self.theta, nf),
@@ -400,11 +398,10 @@ impl<T: Float + Default> Pipeline<T> {
         );
         // n = ∇φ/|∇φ|: ∂L/∂∇φ = (∂L/∂n − n (n·∂L/∂n)) / |∇φ|
         for k in 0..n {
-            let (dn, nrm) = (self.d_normal[k], self.normals[k]);
-            let len = max(norm3(ctx.gradient[k]), of(1e-12));
-            let proj = dot3(dn, nrm);
-            for a in 0..3 {
-                self.d_grad[k][a] += (dn[a] - nrm[a] * proj) / len;
+            let len = safe_norm3(ctx.gradient[k]);
+            let d = unit3_backward(self.d_normal[k], self.normals[k], len);
+            for (g, v) in self.d_grad[k].iter_mut().zip(d) {
+                *g += v;
             }
         }
 
@@ -440,7 +437,7 @@ impl<T: Float + Default> Pipeline<T> {
             let scale = eikonal_weight * of(2.0 / self.eikonal_count as f64);
             for ((p, g), dg) in self.points.iter().zip(&ctx.gradient).zip(&mut self.d_grad) {
                 if in_eikonal_ball(p) {
-                    let len = max(norm3(*g), of(1e-12));
+                    let len = safe_norm3(*g);
                     let f = scale * (len - T::ONE) / len;
                     for a in 0..3 {
                         dg[a] += f * g[a];

@@ -18,7 +18,7 @@
 //! project's addition: SPEC §4 has no such term. Its weight
 //! `loss.material_smoothness` defaults to 0.05; 0 turns it off.
 
-use crate::float::{Float, of, to_f64};
+use crate::float::{Float, of, sign, to_f64};
 use wildlight_fields::{FieldContext, FieldGrads, NeuralField};
 use wildlight_material::{BASE_COLOR, CLEARCOAT, DIELECTRIC, PARAM_COUNT};
 
@@ -34,13 +34,7 @@ fn scales_the_flash(i: usize) -> bool {
 #[inline]
 pub fn pair_difference<T: Float>(i: usize, a: T, b: T) -> (T, T, T) {
     let d = a - b;
-    let sign = if d > T::ZERO {
-        T::ONE
-    } else if d < T::ZERO {
-        -T::ONE
-    } else {
-        T::ZERO
-    };
+    let sign = sign(d);
     let abs = sign * d;
     if scales_the_flash(i) {
         // δ = |a − b| / s, s = a + b + floor: ∂δ/∂a = sign/s − δ/s,
