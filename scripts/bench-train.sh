@@ -6,10 +6,11 @@
 # (appendix eq. 16, normalized frame), base-colour PSNR after scale
 # alignment, and novel-view PSNR with and without flash.
 #
-#   scripts/bench-train.sh [OUT_DIR] [BUDGET_MINUTES] [SNAPSHOT_MINUTES] [EXTRA.toml]
+#   [SEED=S] scripts/bench-train.sh [OUT_DIR] [BUDGET_MINUTES] [SNAPSHOT_MINUTES] [EXTRA.toml]
 #
 # EXTRA.toml (optional) is appended to the run's configuration, to benchmark
-# a setting against the defaults.
+# a setting against the defaults. SEED (default 0) is the training seed, for
+# repeated runs whose median is the benchmark's result.
 #
 # Prints one JSON line per snapshot and writes them to OUT_DIR/curve.jsonl;
 # peak memory of the training process is in OUT_DIR/train.time.
@@ -35,7 +36,7 @@ if [ -n "$extra" ]; then
 fi
 /usr/bin/time -v -o "$out/train.time" \
   "$W" train --data "$cap" --out "$run" --config "$out/bench.toml" \
-  --iters 100000 --time-budget "${budget}m" &
+  --iters 100000 --time-budget "${budget}m" --seed "${SEED:-0}" &
 train_pid=$!
 start=$(date +%s)
 # snapshot DIR: the run's current checkpoint, its age and its last logged step

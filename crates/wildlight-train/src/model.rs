@@ -3,7 +3,7 @@
 //! gradient buffers and optimiser groups.
 
 use crate::ambient::{SPECULAR_EXTRA_INPUTS, ambient_extra_inputs};
-use crate::config::{AmbientModel, FieldSize, ModelConfig};
+use crate::config::{AmbientModel, FieldSize, ModelConfig, ROOM_FEATURES};
 use crate::float::{Float, finite};
 use wildlight_fields::{Activation, FieldGrads, NeuralField, NeuralFieldConfig, SdfField};
 use wildlight_material::PARAM_COUNT;
@@ -21,8 +21,10 @@ pub struct Model<T = f32> {
     /// Ambient radiance a ≥ 0 (softplus outputs); with
     /// [`AmbientModel::DiffuseSpecular`], the diffuse irradiance E_d.
     pub ambient: NeuralField<T>,
-    /// The mirrored room E_s ≥ 0 of [`AmbientModel::DiffuseSpecular`]
-    /// (`None` for [`AmbientModel::Neural`]).
+    /// The ambient term's second field: the mirrored room E_s ≥ 0 of
+    /// [`AmbientModel::DiffuseSpecular`], or the reflected-direction
+    /// features of [`AmbientModel::NeuralRoom`] (`None` for
+    /// [`AmbientModel::Neural`]).
     pub ambient_specular: Option<NeuralField<T>>,
     /// NeuS sharpness parameter v, s = exp(10 v).
     pub sharpness: T,
@@ -150,6 +152,19 @@ impl<T: Float> Model<T> {
             AmbientModel::DiffuseSpecular => Some(radiance_field(
                 &config.ambient_specular,
                 SPECULAR_EXTRA_INPUTS,
+                seed.wrapping_add(3),
+            )?),
+            AmbientModel::NeuralRoom => Some(NeuralField::new(
+                &NeuralFieldConfig {
+                    grid: config.ambient_room.grid(),
+                    bound: 1.0,
+                    include_position: false,
+                    n_extra: 0,
+                    hidden: config.ambient_room.hidden.clone(),
+                    hidden_activation: Activation::Relu,
+                    n_output: ROOM_FEATURES,
+                    output_activation: Activation::None,
+                },
                 seed.wrapping_add(3),
             )?),
         };

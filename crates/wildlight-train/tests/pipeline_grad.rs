@@ -32,6 +32,11 @@ fn tiny_config() -> ModelConfig {
         init_radius: 0.5,
         material: tiny(2, 6, 8),
         ambient: tiny(2, 6, 8),
+        // the default ambient form's room, linear as by default
+        ambient_room: FieldSize {
+            hidden: vec![],
+            ..tiny(2, 6, 8)
+        },
         init_sharpness: 0.35,
         init_log_gain: 0.2,
         ..ModelConfig::default()
@@ -163,6 +168,9 @@ fn spec_mlp(m: &mut Model<f64>) -> &mut Vec<f64> {
     &mut m.ambient_specular.as_mut().unwrap().mlp.params
 }
 
+/// The default form: the neural ambient with the room of the reflected
+/// direction, whose grid and linear map get their gradients and whose
+/// ∂L/∂ω reaches the normals (and the SDF) next to the harmonics' Jacobian.
 #[test]
 fn whole_pipeline_matches_finite_differences() {
     check_whole_pipeline(&tiny_config());
@@ -182,6 +190,16 @@ fn whole_pipeline_with_the_diffuse_specular_ambient_matches_finite_differences()
     check_whole_pipeline(&config);
 }
 
+/// The plain neural ambient, without the room of the reflected direction.
+#[test]
+fn whole_pipeline_with_the_plain_neural_ambient_matches_finite_differences() {
+    let config = ModelConfig {
+        ambient_model: AmbientModel::Neural,
+        ..tiny_config()
+    };
+    check_whole_pipeline(&config);
+}
+
 /// Two spherical-harmonics bands of the reflected direction: the bands
 /// held at zero must pass no gradient to the normals (and so to the SDF).
 #[test]
@@ -193,11 +211,10 @@ fn whole_pipeline_with_two_ambient_sh_bands_matches_finite_differences() {
     check_whole_pipeline(&config);
 }
 
-fn check_whole_pipeline(config: &ModelConfig) {
-    let s = setup();
+/// The tiny model with its hash tables moved away from their tiny initial
+/// values, so that their gradients are not negligible.
+fn prepared_model(config: &ModelConfig) -> Model<f64> {
     let mut model = Model::<f64>::new(config, 5).unwrap();
-    // Move the material and ambient hash tables away from their tiny
-    // initial values so that their gradients are not negligible.
     for (i, v) in model.material.grid.params.iter_mut().enumerate() {
         *v = 0.3 * ((i as f64 * 0.7).sin());
     }
@@ -212,6 +229,13 @@ fn check_whole_pipeline(config: &ModelConfig) {
             *v = 0.3 * ((i as f64 * 1.1).sin());
         }
     }
+    model
+}
+
+/// Checks the analytic gradients against central differences.
+fn check_whole_pipeline(config: &ModelConfig) {
+    let s = setup();
+    let model = prepared_model(config);
     let mut grads = model.new_grads();
     let base = loss(&model, &s, Some(&mut grads));
     assert!(base.is_finite());
@@ -247,6 +271,7 @@ fn check_whole_pipeline(config: &ModelConfig) {
         probe!("ambient_specular.grid", spec_grid, g.grid);
         probe!("ambient_specular.mlp", spec_mlp, g.mlp);
         assert!(g.mlp.iter().any(|v| v.abs() > 1e-6));
+        assert!(g.grid.iter().any(|v| v.abs() > 1e-6));
     }
     for (name, get) in [
         (

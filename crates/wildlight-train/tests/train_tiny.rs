@@ -52,6 +52,7 @@ fn small_config(iters: u64) -> TrainConfig {
     c.model.sdf = small(8, 15, 128, vec![32]);
     c.model.material = small(6, 14, 64, vec![32]);
     c.model.ambient = small(4, 12, 32, vec![32]);
+    c.model.ambient_room = small(3, 12, 32, vec![]);
     c.sampling.grid_resolution = 32;
     c.sampling.grid_refresh_every = 4;
     c.optim.warmup_steps = 10;
@@ -98,9 +99,13 @@ fn short_training_reduces_the_loss_and_fits_the_surface() {
     eprintln!("loss {l0:.4} -> {l1:.4}; mean |sdf| at GT surface {before:.4} -> {after:.4}");
     assert!(l1 < 0.5 * l0, "loss fell only from {l0} to {l1}");
     // The default normal smoothness prior costs this 48-pixel capture some
-    // detail: 0.015 without it, 0.021 with it (0.109 at the start).
+    // detail (0.015 without it, 0.021 with it), and so does the default
+    // ambient room's gradient to the normals (0.030 with it, 0.023 with the
+    // room held back from them; 0.109 at the start). On the 256² benchmark
+    // the room's mesh is as good (0.00214 against 0.00202 after 30 minutes,
+    // 0.0030 against 0.0047 after 15).
     assert!(
-        after < 0.025,
+        after < 0.035,
         "surface distance {after} (started at {before})"
     );
 }
@@ -108,12 +113,14 @@ fn short_training_reduces_the_loss_and_fits_the_surface() {
 #[test]
 fn resumed_training_continues_exactly() {
     // The default material smoothness prior draws its pairs from the step's
-    // own random stream, so a resumed run still continues exactly.
-    check_resume(AmbientModel::Neural, DEFAULT_SMOOTHNESS);
+    // own random stream, so a resumed run still continues exactly. The
+    // default ambient form's room field and its optimiser state survive a
+    // checkpoint too.
+    check_resume(AmbientModel::NeuralRoom, DEFAULT_SMOOTHNESS);
 }
 
 #[test]
-fn resumed_training_without_the_material_smoothness_prior_continues_exactly() {
+fn resumed_training_of_the_plain_neural_ambient_without_the_material_prior_continues_exactly() {
     check_resume(AmbientModel::Neural, 0.0);
 }
 
@@ -182,10 +189,7 @@ fn check_resume(ambient_model: AmbientModel, material_smoothness: f64) {
                 .map(|f| (f.grid.params.clone(), f.mlp.params.clone()))
         };
         assert_eq!(specular(a), specular(b));
-        assert_eq!(
-            specular(a).is_some(),
-            ambient_model == AmbientModel::DiffuseSpecular
-        );
+        assert_eq!(specular(a).is_some(), ambient_model != AmbientModel::Neural);
         assert_eq!(a.sharpness.to_bits(), b.sharpness.to_bits());
         assert_eq!(a.log_gain.to_bits(), b.log_gain.to_bits());
         // and training did move the parameters
