@@ -83,8 +83,10 @@ pub struct AmbientInputGrads<'a, T> {
 /// Buffers of the ambient term between its forward and backward pass.
 #[derive(Default)]
 pub struct AmbientPass<T> {
-    /// The direction ω of every sample (the room's grid input).
-    room_dirs: Vec<[T; 3]>,
+    /// The direction ω of every sample, when it varies per sample (the
+    /// reflected direction) or the room reads it.
+    dirs: Vec<[T; 3]>,
+    /// ∂L/∂ω through the room's grid (empty without a room).
     d_room_dirs: Vec<[T; 3]>,
     room_ctx: FieldContext<T>,
     d_room_out: Vec<T>,
@@ -159,17 +161,19 @@ impl<T: Float + Default> AmbientPass<T> {
         let reflected = config.ambient_direction == AmbientDirection::Reflected;
         let bands = config.ambient_sh_bands;
         let room = room_field(model);
-        if let Some(room) = room {
-            self.room_dirs.clear();
+        self.dirs.clear();
+        if reflected || room.is_some() {
             for (ray, &d) in inputs.ray_dirs.iter().enumerate() {
                 let ks = inputs.offsets[ray] as usize..inputs.offsets[ray + 1] as usize;
-                self.room_dirs.extend(
+                self.dirs.extend(
                     inputs.normals[ks]
                         .iter()
                         .map(|nrm| if reflected { reflect(d, *nrm) } else { d }),
                 );
             }
-            room.forward(&self.room_dirs, &[], &mut self.room_ctx);
+        }
+        if let Some(room) = room {
+            room.forward(&self.dirs, &[], &mut self.room_ctx);
         }
         self.extra.clear();
         self.extra
@@ -182,7 +186,7 @@ impl<T: Float + Default> AmbientPass<T> {
             let view_sh: Option<[T; SH_DEG4_LEN]> = (!reflected).then(|| sh_bands(d, bands));
             for k in inputs.offsets[ray] as usize..inputs.offsets[ray + 1] as usize {
                 let nrm = inputs.normals[k];
-                let sh = view_sh.unwrap_or_else(|| sh_bands(reflect(d, nrm), bands));
+                let sh = view_sh.unwrap_or_else(|| sh_bands(self.dirs[k], bands));
                 self.extra
                     .extend_from_slice(&inputs.features[k * nf..(k + 1) * nf]);
                 self.extra.extend_from_slice(&nrm);
@@ -255,6 +259,7 @@ impl<T: Float + Default> AmbientPass<T> {
         let trains_material = config.ambient_trains_material;
         self.d_extra.clear();
         self.d_extra.resize(n * ne, T::ZERO);
+        self.d_room_dirs.clear();
         if let Some(specular) = specular {
             let specular_grads = specular_grads.expect("gradients for the ambient_specular field");
             // a = A ⊙ E_d + F0 ⊙ E_s: ∂L/∂E_d = A ⊙ ∂L/∂a, ∂L/∂E_s = F0 ⊙ ∂L/∂a,
@@ -320,7 +325,6 @@ impl<T: Float + Default> AmbientPass<T> {
                 self.d_room_out.clear();
                 self.d_room_out
                     .extend(self.d_extra.chunks_exact(ne).flat_map(|row| &row[ne - r..]));
-                self.d_room_dirs.clear();
                 self.d_room_dirs.resize(n, [T::ZERO; 3]);
                 room.backward(
                     &mut self.room_ctx,
@@ -358,7 +362,7 @@ impl<T: Float + Default> AmbientPass<T> {
                     // ω = d − 2(d·n)n: ∂ω/∂n = −2 (n dᵀ + (d·n) I)
                     let nrm = inputs.normals[k];
                     // (the bands held at zero pass no gradient)
-                    let jac = sh_deg4_jacobian(reflect(d, nrm));
+                    let jac = sh_deg4_jacobian(self.dirs[k]);
                     // ∂L/∂ω of the room's grid (zero without a room). Held
                     // back from the normals, the room gained nothing over the
                     // plain form (3,000 steps: 26.27 / 28.16 dB against

@@ -223,7 +223,7 @@ pub struct ModelConfig {
     /// (flash / no flash) against 4, so 4 stays the default.
     pub ambient_sh_bands: usize,
     /// The room-reflection field E_s of [`AmbientModel::DiffuseSpecular`]
-    /// (unused by [`AmbientModel::Neural`]). Its hash grid should stay
+    /// (unused by the other forms). Its hash grid should stay
     /// coarse: one room is reflected by every part of the object, and a
     /// field that could vary from one part to the next would let a dark
     /// dielectric pass for a metal again.

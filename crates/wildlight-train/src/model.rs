@@ -76,11 +76,13 @@ impl<T: Float> ModelGrads<T> {
     }
 }
 
-/// A field of a hash grid and an MLP with `n_extra` extra inputs and three
-/// softplus outputs (a non-negative radiance).
-fn radiance_field<T: Float>(
+/// A field of a hash grid of the position (sized by `size`) and an MLP with
+/// `n_extra` extra inputs, ReLU hidden layers and `n_output` outputs.
+fn grid_mlp_field<T: Float>(
     size: &FieldSize,
     n_extra: usize,
+    n_output: usize,
+    output_activation: Activation,
     seed: u64,
 ) -> anyhow::Result<NeuralField<T>> {
     Ok(NeuralField::new(
@@ -91,11 +93,20 @@ fn radiance_field<T: Float>(
             n_extra,
             hidden: size.hidden.clone(),
             hidden_activation: Activation::Relu,
-            n_output: 3,
-            output_activation: Activation::Softplus { beta: 1.0 },
+            n_output,
+            output_activation,
         },
         seed,
     )?)
+}
+
+/// A field with three softplus outputs (a non-negative radiance).
+fn radiance_field<T: Float>(
+    size: &FieldSize,
+    n_extra: usize,
+    seed: u64,
+) -> anyhow::Result<NeuralField<T>> {
+    grid_mlp_field(size, n_extra, 3, Activation::Softplus { beta: 1.0 }, seed)
 }
 
 /// The logit of a probability, the inverse of the sigmoid.
@@ -128,17 +139,11 @@ impl<T: Float> Model<T> {
     /// A freshly initialised model (the SDF starts as a sphere).
     pub fn new(config: &ModelConfig, seed: u64) -> anyhow::Result<Self> {
         let sdf = SdfField::new(&config.sdf_field(), seed)?;
-        let mut material = NeuralField::new(
-            &NeuralFieldConfig {
-                grid: config.material.grid(),
-                bound: 1.0,
-                include_position: false,
-                n_extra: 0,
-                hidden: config.material.hidden.clone(),
-                hidden_activation: Activation::Relu,
-                n_output: PARAM_COUNT,
-                output_activation: Activation::Sigmoid,
-            },
+        let mut material = grid_mlp_field(
+            &config.material,
+            0,
+            PARAM_COUNT,
+            Activation::Sigmoid,
             seed.wrapping_add(1),
         )?;
         set_output_bias(&mut material, &config.init_material.map(logit))?;
@@ -154,17 +159,12 @@ impl<T: Float> Model<T> {
                 SPECULAR_EXTRA_INPUTS,
                 seed.wrapping_add(3),
             )?),
-            AmbientModel::NeuralRoom => Some(NeuralField::new(
-                &NeuralFieldConfig {
-                    grid: config.ambient_room.grid(),
-                    bound: 1.0,
-                    include_position: false,
-                    n_extra: 0,
-                    hidden: config.ambient_room.hidden.clone(),
-                    hidden_activation: Activation::Relu,
-                    n_output: ROOM_FEATURES,
-                    output_activation: Activation::None,
-                },
+            // its grid encodes ω (a point of the unit sphere), not a position
+            AmbientModel::NeuralRoom => Some(grid_mlp_field(
+                &config.ambient_room,
+                0,
+                ROOM_FEATURES,
+                Activation::None,
                 seed.wrapping_add(3),
             )?),
         };
