@@ -240,9 +240,17 @@ fn materials_table(r: &MaterialEvaluation) -> String {
         number(r.metallic_mae, 4)
     );
     s += &format!(
-        "  normal error              {}°  (coverage {})\n",
+        "  normal error              {}°  (median {}°, coverage {})\n",
         number(r.normal_error_deg, 2),
+        number(r.normal_error_median_deg, 2),
         number(r.normal_coverage, 3)
     );
+    if let Some(within) = &r.normal_within {
+        let shares: Vec<String> = within
+            .iter()
+            .map(|w| format!("{}° {:.1} %", w.deg, 100.0 * w.fraction))
+            .collect();
+        s += &format!("  normals within            {}\n", shares.join(", "));
+    }
     s
 }

@@ -24,7 +24,9 @@ pub mod visibility;
 
 pub use error::EvalError;
 pub use image_eval::{ImageEvaluation, evaluate_images};
-pub use material_eval::{MaterialEvaluation, Split, evaluate_materials};
+pub use material_eval::{
+    MaterialEvaluation, NORMAL_THRESHOLDS_DEG, NormalWithin, Split, evaluate_materials,
+};
 pub use mesh_eval::{MeshEvaluation, evaluate_meshes};
 pub use surface_distance::{SurfaceDistance, SurfaceDistanceOptions, surface_distance};
 pub use visibility::{Frustum, Viewpoint, restrict_to_visible, visible_triangles};

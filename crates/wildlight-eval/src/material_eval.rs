@@ -16,7 +16,12 @@
 //! - `roughness_mae`, `metallic_mae`: mean |p − g|;
 //! - `normal_error_deg`: mean angle between the unit normals, over the
 //!   counted pixels where both normals are non-zero; `normal_coverage` is the
-//!   fraction of counted pixels where the prediction has a normal.
+//!   fraction of counted pixels where the prediction has a normal;
+//! - `normal_error_median_deg` and `normal_within`: the median of those
+//!   angles, and the fraction of them at or below each of
+//!   [`NORMAL_THRESHOLDS_DEG`]. A mean alone cannot tell a few badly wrong
+//!   pixels (a crease the reconstruction rounded off, a groove it missed)
+//!   from a small error everywhere; the median and the shares can.
 //!
 //! The views are those of `PRED/views.json` in the chosen split, or, without
 //! that file, every `PRED/base_color/NNN.exr`. A kind whose prediction
@@ -60,6 +65,20 @@ impl Split {
     }
 }
 
+/// The angles (degrees) of `normal_within`: 1° and 5° for fine
+/// reconstruction, and 11.25°, 22.5° and 30°, the usual thresholds of
+/// surface-normal benchmarks.
+pub const NORMAL_THRESHOLDS_DEG: [f64; 5] = [1.0, 5.0, 11.25, 22.5, 30.0];
+
+/// The share of normals within one angle of the truth.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct NormalWithin {
+    /// The angle, in degrees.
+    pub deg: f64,
+    /// Fraction of the compared normals whose error is at most `deg`.
+    pub fraction: f64,
+}
+
 /// Result of [`evaluate_materials`].
 #[derive(Clone, Debug, Serialize)]
 pub struct MaterialEvaluation {
@@ -83,6 +102,10 @@ pub struct MaterialEvaluation {
     pub normal_error_deg: Option<f64>,
     /// Fraction of counted pixels where the prediction has a normal.
     pub normal_coverage: Option<f64>,
+    /// Median normal angular error in degrees.
+    pub normal_error_median_deg: Option<f64>,
+    /// Share of normals within each of [`NORMAL_THRESHOLDS_DEG`].
+    pub normal_within: Option<Vec<NormalWithin>>,
 }
 
 /// Sums gathered over the counted pixels of some views (mergeable).
@@ -100,6 +123,8 @@ struct Sums {
     metallic_abs: f64,
     metallic_pixels: usize,
     angle_deg: f64,
+    /// Every compared pixel's normal error, for the median and the shares.
+    angles_deg: Vec<f64>,
     normal_pixels: usize,
     normal_counted: usize,
 }
@@ -119,6 +144,7 @@ impl Sums {
         self.metallic_abs += o.metallic_abs;
         self.metallic_pixels += o.metallic_pixels;
         self.angle_deg += o.angle_deg;
+        self.angles_deg.extend(o.angles_deg);
         self.normal_pixels += o.normal_pixels;
         self.normal_counted += o.normal_counted;
         self
@@ -227,7 +253,9 @@ fn view_sums(pred_dir: &Path, split_dir: &Path, index: usize) -> Result<Sums, Ev
             sums.normal_counted += 1;
             if np.length_squared() > 0.0 && ng.length_squared() > 0.0 {
                 let cos = np.normalize().dot(ng.normalize()).clamp(-1.0, 1.0);
-                sums.angle_deg += cos.acos().to_degrees();
+                let angle = cos.acos().to_degrees();
+                sums.angle_deg += angle;
+                sums.angles_deg.push(angle);
                 sums.normal_pixels += 1;
             }
         }
@@ -288,10 +316,34 @@ pub fn evaluate_materials(
         .par_iter()
         .map(|&i| view_sums(pred_dir, &split_dir, i))
         .try_reduce(Sums::default, |a, b| Ok(a.merge(b)))?;
-    Ok(summarize(split, indices.len(), &sums))
+    Ok(summarize(split, indices.len(), sums))
 }
 
-fn summarize(split: Split, views: usize, s: &Sums) -> MaterialEvaluation {
+/// The median of `values` (the mean of the middle two for an even count),
+/// or `None` when there are none. Sorts `values`.
+fn median(values: &mut [f64]) -> Option<f64> {
+    values.sort_unstable_by(f64::total_cmp);
+    let n = values.len();
+    match n {
+        0 => None,
+        _ if n % 2 == 1 => Some(values[n / 2]),
+        _ => Some(0.5 * (values[n / 2 - 1] + values[n / 2])),
+    }
+}
+
+fn summarize(split: Split, views: usize, mut s: Sums) -> MaterialEvaluation {
+    let normal_error_median_deg = median(&mut s.angles_deg);
+    let normal_within = (!s.angles_deg.is_empty()).then(|| {
+        NORMAL_THRESHOLDS_DEG
+            .iter()
+            .map(|&deg| NormalWithin {
+                deg,
+                // `angles_deg` is sorted: count the prefix at or below `deg`.
+                fraction: s.angles_deg.partition_point(|a| *a <= deg) as f64
+                    / s.angles_deg.len() as f64,
+            })
+            .collect()
+    });
     let ratio = |num: f64, den: usize| (den > 0).then(|| num / den as f64);
     let base = (s.base_pixels > 0).then_some(());
     let scale = base.map(|_| {
@@ -323,5 +375,20 @@ fn summarize(split: Split, views: usize, s: &Sums) -> MaterialEvaluation {
         metallic_mae: ratio(s.metallic_abs, s.metallic_pixels),
         normal_error_deg: ratio(s.angle_deg, s.normal_pixels),
         normal_coverage: ratio(s.normal_pixels as f64, s.normal_counted),
+        normal_error_median_deg,
+        normal_within,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::median;
+
+    #[test]
+    fn median_of_odd_even_and_empty_sets() {
+        assert_eq!(median(&mut [3.0, 1.0, 2.0]), Some(2.0));
+        assert_eq!(median(&mut [4.0, 1.0, 3.0, 2.0]), Some(2.5));
+        assert_eq!(median(&mut [7.5]), Some(7.5));
+        assert_eq!(median(&mut []), None);
     }
 }

@@ -211,6 +211,12 @@ fn materials_with_scale_alignment_and_masks() {
         let mut normal = masked([tilt.sin(), 0.0, tilt.cos()], [1.0, 0.0, 0.0]);
         if index == 1 {
             normal.set(0, 0, [0.0; 3]); // no predicted surface at one pixel
+            // Four pixels 40° off (a missed crease): the mean moves, the
+            // median does not.
+            let steep = 40f32.to_radians();
+            for y in 0..4 {
+                normal.set(1, y, [steep.sin(), 0.0, steep.cos()]);
+            }
         }
         write_pred(&pred_dir, "normal", index, &normal);
     }
@@ -226,8 +232,37 @@ fn materials_with_scale_alignment_and_masks() {
     }
     assert!((r.roughness_mae.unwrap() - 0.2).abs() < 1e-6);
     assert!((r.metallic_mae.unwrap() - 0.1).abs() < 1e-6);
-    assert!((r.normal_error_deg.unwrap() - 10.0).abs() < 1e-3, "{r:?}");
+    // 63 compared normals: 59 at 10°, 4 at 40°.
+    let mean = (59.0 * 10.0 + 4.0 * 40.0) / 63.0;
+    assert!((r.normal_error_deg.unwrap() - mean).abs() < 1e-3, "{r:?}");
     assert!((r.normal_coverage.unwrap() - 63.0 / 64.0).abs() < 1e-12);
+    assert!(
+        (r.normal_error_median_deg.unwrap() - 10.0).abs() < 1e-3,
+        "{r:?}"
+    );
+    let within: Vec<(f64, f64)> = r
+        .normal_within
+        .as_ref()
+        .unwrap()
+        .iter()
+        .map(|w| (w.deg, w.fraction))
+        .collect();
+    let share = 59.0 / 63.0;
+    let expected = [
+        (1.0, 0.0),
+        (5.0, 0.0),
+        (11.25, share),
+        (22.5, share),
+        (30.0, share),
+    ];
+    assert_eq!(within.len(), expected.len());
+    for ((deg, fraction), (want_deg, want)) in within.iter().zip(expected) {
+        assert_eq!(*deg, want_deg);
+        assert!(
+            (fraction - want).abs() < 1e-12,
+            "{deg}°: {fraction} vs {want}"
+        );
+    }
 
     // The train split has no ground truth here.
     let err = evaluate_materials(&pred_dir, &gt_dir, Split::Train)
