@@ -16,8 +16,15 @@ pub struct TrainConfig {
     pub iters: u64,
     /// Rays per step.
     pub batch_rays: usize,
-    /// Share of the rays drawn from mask foreground pixels (the rest from all pixels).
+    /// Share of the rays drawn from mask foreground pixels (the rest from
+    /// the silhouette band and from all pixels).
     pub foreground_fraction: f64,
+    /// Share of the rays drawn from the silhouette band: pixels within
+    /// `silhouette_band` pixels of a mask edge, on either side, where the
+    /// mask loss sees the outline (0 = none).
+    pub silhouette_fraction: f64,
+    /// Half-width of the silhouette band in pixels.
+    pub silhouette_band: u32,
     /// Extra points drawn uniformly in the ball of radius 1.2 for the eikonal term.
     pub eikonal_points: usize,
     /// Loss weights and learning rates.
@@ -39,6 +46,8 @@ impl Default for TrainConfig {
             iters: 4000,
             batch_rays: 1024,
             foreground_fraction: 0.8,
+            silhouette_fraction: 0.0,
+            silhouette_band: 2,
             eikonal_points: 512,
             loss: LossConfig::default(),
             optim: OptimConfig::default(),
@@ -457,6 +466,21 @@ impl TrainConfig {
         if !(0.0..=1.0).contains(&self.foreground_fraction) {
             return bad("foreground_fraction", "must be in [0, 1]");
         }
+        if !(0.0..=1.0).contains(&self.silhouette_fraction) {
+            return bad("silhouette_fraction", "must be in [0, 1]");
+        }
+        if self.foreground_fraction + self.silhouette_fraction > 1.0 {
+            return bad(
+                "silhouette_fraction",
+                "foreground_fraction + silhouette_fraction must be at most 1",
+            );
+        }
+        if self.silhouette_fraction > 0.0 && self.silhouette_band == 0 {
+            return bad(
+                "silhouette_band",
+                "must be at least 1 when silhouette_fraction > 0",
+            );
+        }
         for (name, v) in [
             ("loss.color", self.loss.color),
             ("loss.eikonal", self.loss.eikonal),
@@ -570,6 +594,23 @@ mod tests {
         };
         assert!(c.validate().unwrap_err().contains("foreground_fraction"));
         assert!(TrainConfig::default().validate().is_ok());
+        // The two shares of a batch cannot add up to more than all of it.
+        let c = TrainConfig {
+            foreground_fraction: 0.8,
+            silhouette_fraction: 0.3,
+            ..TrainConfig::default()
+        };
+        let err = c.validate().unwrap_err();
+        assert!(
+            err.contains("silhouette_fraction") && err.contains("at most 1"),
+            "{err}"
+        );
+        let c = TrainConfig {
+            silhouette_fraction: 0.1,
+            silhouette_band: 0,
+            ..TrainConfig::default()
+        };
+        assert!(c.validate().unwrap_err().contains("silhouette_band"));
     }
 
     #[test]

@@ -1,6 +1,13 @@
 //! Training rays: every pixel of every image of a capture, drawn at random
 //! across images each step (flash and no-flash mixed, SPEC §4), with its
 //! observed colour, mask value and flash energy.
+//!
+//! A batch mixes three kinds of draws ([`RayShares`]): foreground pixels,
+//! pixels of the silhouette band (within a few pixels of a mask edge, on
+//! either side), and pixels drawn uniformly from whole images. The band is
+//! where the mask loss has something to say: a notch the silhouette shows
+//! where a groove crosses the outline is a few pixels out of 65,536, and a
+//! uniform draw reaches each of them about once in a whole training run.
 
 use rand::Rng;
 use wildlight_data::{Camera, Dataset};
@@ -10,6 +17,9 @@ pub struct TrainingRays {
     views: Vec<ViewRays>,
     /// (view, pixel index) of every foreground pixel.
     foreground: Vec<(u32, u32)>,
+    /// (view, pixel index) of every pixel of the silhouette band (empty
+    /// until [`TrainingRays::set_silhouette_band`]).
+    silhouette: Vec<(u32, u32)>,
     /// Saturation cap of the capture.
     pub saturation: Option<f32>,
     /// Whether the capture has masks.
@@ -23,6 +33,48 @@ struct ViewRays {
     pixels: Vec<f32>,
     mask: Option<Vec<bool>>,
     energy: [f32; 3],
+}
+
+/// How a batch is split between the kinds of draws; what the two shares
+/// leave is drawn uniformly from all pixels of all views.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayShares {
+    /// Share of the rays drawn from mask foreground pixels.
+    pub foreground: f64,
+    /// Share of the rays drawn from the silhouette band.
+    pub silhouette: f64,
+}
+
+/// Grows the set flags of a `width × height` image by `radius` pixels in
+/// every direction (a square, Chebyshev-distance dilation; pixels outside
+/// the image count as unset).
+fn dilate(flags: &[bool], width: usize, height: usize, radius: usize) -> Vec<bool> {
+    // Separable: a running window along the rows, then along the columns.
+    let pass = |src: &[bool], len: usize, count: usize, at: &dyn Fn(usize, usize) -> usize| {
+        let mut out = vec![false; src.len()];
+        for line in 0..count {
+            for i in 0..len {
+                let (lo, hi) = (i.saturating_sub(radius), (i + radius).min(len - 1));
+                out[at(line, i)] = (lo..=hi).any(|j| src[at(line, j)]);
+            }
+        }
+        out
+    };
+    let rows = pass(flags, width, height, &|y, x| y * width + x);
+    pass(&rows, height, width, &|x, y| y * width + x)
+}
+
+/// The pixels (row-major indices) within `band` pixels (Chebyshev
+/// distance) of both a set and an unset pixel of `mask`: the outline of the
+/// object, `band` pixels deep on either side.
+pub fn silhouette_band(mask: &[bool], width: usize, height: usize, band: usize) -> Vec<u32> {
+    let near_object = dilate(mask, width, height, band);
+    let outside: Vec<bool> = mask.iter().map(|m| !m).collect();
+    let near_background = dilate(&outside, width, height, band);
+    (0..mask.len())
+        .filter(|&p| near_object[p] && near_background[p])
+        .map(|p| p as u32)
+        .collect()
 }
 
 /// A batch of rays with what was observed along them.
@@ -99,8 +151,34 @@ impl TrainingRays {
             has_masks: views.iter().all(|v| v.mask.is_some()),
             views,
             foreground,
+            silhouette: Vec::new(),
             saturation: dataset.saturation,
         }
+    }
+
+    /// Collects the silhouette band: the pixels within `band` pixels of a
+    /// mask edge, on either side, of every view with a mask (none when
+    /// `band` is 0).
+    pub fn set_silhouette_band(&mut self, band: u32) {
+        self.silhouette.clear();
+        if band == 0 {
+            return;
+        }
+        for (v, view) in self.views.iter().enumerate() {
+            if let Some(mask) = &view.mask {
+                let (w, h) = (view.width as usize, view.height as usize);
+                self.silhouette.extend(
+                    silhouette_band(mask, w, h, band as usize)
+                        .into_iter()
+                        .map(|p| (v as u32, p)),
+                );
+            }
+        }
+    }
+
+    /// Number of silhouette-band pixels over all views.
+    pub fn silhouette_pixels(&self) -> usize {
+        self.silhouette.len()
     }
 
     /// Number of foreground pixels over all views.
@@ -108,20 +186,28 @@ impl TrainingRays {
         self.foreground.len()
     }
 
-    /// Draws `n` rays: `fg_fraction` of them from foreground pixels, the
-    /// rest uniformly from all pixels of all views.
-    pub fn draw(&self, rng: &mut impl Rng, n: usize, fg_fraction: f64, out: &mut RayBatch) {
+    /// Draws `n` rays: `shares.foreground` of them from foreground pixels,
+    /// `shares.silhouette` from the silhouette band, the rest uniformly from
+    /// all pixels of all views (a kind with no pixels gives its share to
+    /// the uniform draws).
+    pub fn draw(&self, rng: &mut impl Rng, n: usize, shares: RayShares, out: &mut RayBatch) {
         *out = RayBatch::default();
-        let n_fg = if self.foreground.is_empty() {
-            0
-        } else {
-            ((n as f64) * fg_fraction).round() as usize
+        let count = |pixels: &[(u32, u32)], share: f64| {
+            if pixels.is_empty() {
+                0
+            } else {
+                ((n as f64) * share).round() as usize
+            }
         };
-        for _ in 0..n_fg {
-            let (v, p) = self.foreground[rng.random_range(0..self.foreground.len())];
-            out.push(&self.views[v as usize], p);
+        let n_fg = count(&self.foreground, shares.foreground).min(n);
+        let n_band = count(&self.silhouette, shares.silhouette).min(n - n_fg);
+        for (pixels, draws) in [(&self.foreground, n_fg), (&self.silhouette, n_band)] {
+            for _ in 0..draws {
+                let (v, p) = pixels[rng.random_range(0..pixels.len())];
+                out.push(&self.views[v as usize], p);
+            }
         }
-        for _ in n_fg..n {
+        for _ in n_fg + n_band..n {
             let view = &self.views[rng.random_range(0..self.views.len())];
             let p = rng.random_range(0..view.width * view.height);
             out.push(view, p);
@@ -146,5 +232,131 @@ impl TrainingRays {
     /// Size of view `v`.
     pub fn view_size(&self, v: usize) -> (u32, u32) {
         (self.views[v].width, self.views[v].height)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{DMat4, DVec3};
+    use rand::SeedableRng;
+    use wildlight_data::camera::intrinsics_from_fov_x;
+
+    /// A `w × h` mask set on the pixels where `inside(x, y)` holds.
+    fn mask(w: usize, h: usize, inside: impl Fn(usize, usize) -> bool) -> Vec<bool> {
+        (0..w * h).map(|p| inside(p % w, p / w)).collect()
+    }
+
+    #[test]
+    fn the_band_is_the_outline_on_both_sides() {
+        // A 3×3 object in the middle of a 7×7 image, band 1: its outer ring
+        // (8 pixels) and the background ring around it (16 pixels), that is
+        // the 5×5 square without its centre.
+        let m = mask(7, 7, |x, y| (2..=4).contains(&x) && (2..=4).contains(&y));
+        let band = silhouette_band(&m, 7, 7, 1);
+        let want: Vec<u32> = (0..49u32)
+            .filter(|p| {
+                let (x, y) = (p % 7, p / 7);
+                (1..=5).contains(&x) && (1..=5).contains(&y) && (x, y) != (3, 3)
+            })
+            .collect();
+        assert_eq!(band, want);
+        // Band 2 reaches the centre and the image's edge rows and columns.
+        assert_eq!(silhouette_band(&m, 7, 7, 2).len(), 49);
+        // No background anywhere (pixels outside the image do not count as
+        // background), or no object: no outline.
+        assert!(silhouette_band(&[true; 16], 4, 4, 1).is_empty());
+        assert!(silhouette_band(&[false; 16], 4, 4, 1).is_empty());
+    }
+
+    #[test]
+    fn draws_follow_the_shares() {
+        // One 16×16 view whose red channel is the pixel index, with a 6×6
+        // object in the middle.
+        let (w, h) = (16u32, 16u32);
+        let camera = Camera::look_at(
+            0,
+            w,
+            h,
+            intrinsics_from_fov_x(w, h, 40.0),
+            DVec3::new(0.0, 0.0, 3.0),
+            DVec3::ZERO,
+            DVec3::Y,
+            DMat4::IDENTITY,
+            [0.0; 3],
+        )
+        .unwrap();
+        let object = mask(16, 16, |x, y| (5..11).contains(&x) && (5..11).contains(&y));
+        let mut pixels = vec![0.0; (w * h * 3) as usize];
+        for p in 0..(w * h) as usize {
+            pixels[3 * p] = p as f32;
+        }
+        let mut rays = TrainingRays {
+            views: vec![ViewRays {
+                camera,
+                width: w,
+                height: h,
+                pixels,
+                mask: Some(object.clone()),
+                energy: [0.0; 3],
+            }],
+            foreground: (0..w * h)
+                .filter(|p| object[*p as usize])
+                .map(|p| (0, p))
+                .collect(),
+            silhouette: Vec::new(),
+            saturation: None,
+            has_masks: true,
+        };
+        rays.set_silhouette_band(1);
+        let band = silhouette_band(&object, 16, 16, 1);
+        assert_eq!(rays.silhouette_pixels(), band.len());
+        let shares = RayShares {
+            foreground: 0.5,
+            silhouette: 0.25,
+        };
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(7);
+        let mut batch = RayBatch::default();
+        rays.draw(&mut rng, 400, shares, &mut batch);
+        assert_eq!(batch.len(), 400);
+        let drawn: Vec<u32> = batch.target.iter().map(|t| t[0] as u32).collect();
+        // The first 200 are foreground pixels, the next 100 band pixels.
+        assert!(drawn[..200].iter().all(|p| object[*p as usize]));
+        assert!(drawn[200..300].iter().all(|p| band.contains(p)));
+        // The band's draws land on both sides of the outline.
+        let inside = drawn[200..300]
+            .iter()
+            .filter(|p| object[**p as usize])
+            .count();
+        assert!((20..80).contains(&inside), "{inside} of 100 inside");
+        // The last 100 are uniform: some land far from the object.
+        let far = drawn[300..]
+            .iter()
+            .filter(|p| !object[**p as usize] && !band.contains(p))
+            .count();
+        assert!(far > 40, "{far} of 100 far from the object");
+
+        // Without a band, its share goes to the uniform draws, and the
+        // draws are those of a batch that never asked for a band.
+        rays.set_silhouette_band(0);
+        let mut again = RayBatch::default();
+        rays.draw(
+            &mut rand_pcg::Pcg64::seed_from_u64(7),
+            400,
+            shares,
+            &mut again,
+        );
+        let mut plain = RayBatch::default();
+        let no_band = RayShares {
+            foreground: 0.5,
+            silhouette: 0.0,
+        };
+        rays.draw(
+            &mut rand_pcg::Pcg64::seed_from_u64(7),
+            400,
+            no_band,
+            &mut plain,
+        );
+        assert_eq!(again.target, plain.target);
     }
 }

@@ -9,7 +9,7 @@ use crate::loss::{colour_l1, mask_bce, psnr};
 use crate::model::{Model, ModelGrads};
 use crate::normal_smoothness::NormalSmoothness;
 use crate::pipeline::{PassSettings, Pipeline, RayInputs, eval_sdf};
-use crate::rays::{RayBatch, TrainingRays};
+use crate::rays::{RayBatch, RayShares, TrainingRays};
 use crate::smoothness::MaterialSmoothness;
 use anyhow::Context;
 use rand::{Rng, SeedableRng};
@@ -109,8 +109,13 @@ fn mix(seed: u64, step: u64, stream: u64) -> u64 {
 
 impl Trainer {
     /// A new run on the capture's rays.
-    pub fn new(config: TrainConfig, rays: TrainingRays) -> anyhow::Result<Self> {
+    pub fn new(config: TrainConfig, mut rays: TrainingRays) -> anyhow::Result<Self> {
         config.validate().map_err(anyhow::Error::msg)?;
+        rays.set_silhouette_band(if config.silhouette_fraction > 0.0 {
+            config.silhouette_band
+        } else {
+            0
+        });
         let model = Model::new(&config.model, config.seed)?;
         let mut adam = Adam::new();
         let o = &config.optim;
@@ -254,12 +259,12 @@ impl Trainer {
         }
         let cfg = &self.config;
         let mut rng = Pcg64::seed_from_u64(mix(cfg.seed, step, 1));
-        self.rays.draw(
-            &mut rng,
-            cfg.batch_rays,
-            cfg.foreground_fraction,
-            &mut self.batch,
-        );
+        let shares = RayShares {
+            foreground: cfg.foreground_fraction,
+            silhouette: cfg.silhouette_fraction,
+        };
+        self.rays
+            .draw(&mut rng, cfg.batch_rays, shares, &mut self.batch);
         let eik: Vec<[f32; 3]> = (0..cfg.eikonal_points)
             .map(|_| {
                 loop {
