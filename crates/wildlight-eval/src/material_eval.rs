@@ -30,6 +30,7 @@
 use crate::EvalError;
 use crate::image_metrics::psnr_from_mse;
 use crate::rendered_views::{map_path, read_views};
+use crate::surface_distance::median;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -122,10 +123,9 @@ struct Sums {
     roughness_pixels: usize,
     metallic_abs: f64,
     metallic_pixels: usize,
-    angle_deg: f64,
-    /// Every compared pixel's normal error, for the median and the shares.
+    /// Every compared pixel's normal error (degrees): their count, mean,
+    /// median and shares.
     angles_deg: Vec<f64>,
-    normal_pixels: usize,
     normal_counted: usize,
 }
 
@@ -143,9 +143,7 @@ impl Sums {
         self.roughness_pixels += o.roughness_pixels;
         self.metallic_abs += o.metallic_abs;
         self.metallic_pixels += o.metallic_pixels;
-        self.angle_deg += o.angle_deg;
         self.angles_deg.extend(o.angles_deg);
-        self.normal_pixels += o.normal_pixels;
         self.normal_counted += o.normal_counted;
         self
     }
@@ -253,10 +251,7 @@ fn view_sums(pred_dir: &Path, split_dir: &Path, index: usize) -> Result<Sums, Ev
             sums.normal_counted += 1;
             if np.length_squared() > 0.0 && ng.length_squared() > 0.0 {
                 let cos = np.normalize().dot(ng.normalize()).clamp(-1.0, 1.0);
-                let angle = cos.acos().to_degrees();
-                sums.angle_deg += angle;
-                sums.angles_deg.push(angle);
-                sums.normal_pixels += 1;
+                sums.angles_deg.push(cos.acos().to_degrees());
             }
         }
     }
@@ -319,28 +314,17 @@ pub fn evaluate_materials(
     Ok(summarize(split, indices.len(), sums))
 }
 
-/// The median of `values` (the mean of the middle two for an even count),
-/// or `None` when there are none. Sorts `values`.
-fn median(values: &mut [f64]) -> Option<f64> {
-    values.sort_unstable_by(f64::total_cmp);
-    let n = values.len();
-    match n {
-        0 => None,
-        _ if n % 2 == 1 => Some(values[n / 2]),
-        _ => Some(0.5 * (values[n / 2 - 1] + values[n / 2])),
-    }
-}
-
 fn summarize(split: Split, views: usize, mut s: Sums) -> MaterialEvaluation {
-    let normal_error_median_deg = median(&mut s.angles_deg);
-    let normal_within = (!s.angles_deg.is_empty()).then(|| {
+    s.angles_deg.sort_unstable_by(f64::total_cmp);
+    let normal_pixels = s.angles_deg.len();
+    let normal_error_median_deg = (normal_pixels > 0).then(|| median(&mut s.angles_deg));
+    let normal_within = (normal_pixels > 0).then(|| {
         NORMAL_THRESHOLDS_DEG
             .iter()
             .map(|&deg| NormalWithin {
                 deg,
                 // `angles_deg` is sorted: count the prefix at or below `deg`.
-                fraction: s.angles_deg.partition_point(|a| *a <= deg) as f64
-                    / s.angles_deg.len() as f64,
+                fraction: s.angles_deg.partition_point(|a| *a <= deg) as f64 / normal_pixels as f64,
             })
             .collect()
     });
@@ -373,22 +357,9 @@ fn summarize(split: Split, views: usize, mut s: Sums) -> MaterialEvaluation {
         base_color_scale: scale,
         roughness_mae: ratio(s.roughness_abs, s.roughness_pixels),
         metallic_mae: ratio(s.metallic_abs, s.metallic_pixels),
-        normal_error_deg: ratio(s.angle_deg, s.normal_pixels),
-        normal_coverage: ratio(s.normal_pixels as f64, s.normal_counted),
+        normal_error_deg: ratio(s.angles_deg.iter().sum(), normal_pixels),
+        normal_coverage: ratio(normal_pixels as f64, s.normal_counted),
         normal_error_median_deg,
         normal_within,
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::median;
-
-    #[test]
-    fn median_of_odd_even_and_empty_sets() {
-        assert_eq!(median(&mut [3.0, 1.0, 2.0]), Some(2.0));
-        assert_eq!(median(&mut [4.0, 1.0, 3.0, 2.0]), Some(2.5));
-        assert_eq!(median(&mut [7.5]), Some(7.5));
-        assert_eq!(median(&mut []), None);
     }
 }
