@@ -17,6 +17,7 @@
 
 pub mod ambient;
 pub mod config;
+pub mod error_map;
 pub mod float;
 pub mod inference;
 pub mod loss;

@@ -44,8 +44,10 @@ pub fn colour_l1(
     (l1 * inv, n, l2 * inv)
 }
 
+/// Whether a channel is left out of the colour loss (SPEC §4: both the
+/// prediction and the observation are ≥ the cap).
 #[inline]
-fn saturated(pred: f32, obs: f32, cap: Option<f32>) -> bool {
+pub fn saturated(pred: f32, obs: f32, cap: Option<f32>) -> bool {
     cap.is_some_and(|c| pred >= c && obs >= c)
 }
 

@@ -8,7 +8,10 @@
 //! where the mask loss has something to say: a notch the silhouette shows
 //! where a groove crosses the outline is a few pixels out of 65,536, and a
 //! uniform draw reaches each of them about once in a whole training run.
+//! A fourth kind, optional, draws pixels where the model's colour error is
+//! large ([`crate::error_map`]).
 
+use crate::error_map::ErrorMap;
 use rand::Rng;
 use wildlight_data::{Camera, Dataset};
 
@@ -20,6 +23,9 @@ pub struct TrainingRays {
     /// (view, pixel index) of every pixel of the silhouette band (empty
     /// until [`TrainingRays::set_silhouette_band`]).
     silhouette: Vec<(u32, u32)>,
+    /// The per-tile colour error estimates of error-guided draws (none
+    /// until [`TrainingRays::set_error_map`]).
+    error_map: Option<ErrorMap>,
     /// Saturation cap of the capture.
     pub saturation: Option<f32>,
     /// Whether the capture has masks.
@@ -35,14 +41,16 @@ struct ViewRays {
     energy: [f32; 3],
 }
 
-/// How a batch is split between the kinds of draws; what the two shares
-/// leave is drawn uniformly from all pixels of all views.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// How a batch is split between the kinds of draws; what the shares leave
+/// is drawn uniformly from all pixels of all views.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RayShares {
     /// Share of the rays drawn from mask foreground pixels.
     pub foreground: f64,
     /// Share of the rays drawn from the silhouette band.
     pub silhouette: f64,
+    /// Share of the rays drawn in proportion to the error map.
+    pub error: f64,
 }
 
 /// Grows the set flags of a `width × height` image by `radius` pixels in
@@ -90,6 +98,8 @@ pub struct RayBatch {
     pub target: Vec<[f32; 3]>,
     /// Mask value (1 object, 0 background; 1 when there are no masks).
     pub mask: Vec<f32>,
+    /// (view, pixel index) each ray was drawn from.
+    pub pixels: Vec<(u32, u32)>,
 }
 
 impl RayBatch {
@@ -103,7 +113,8 @@ impl RayBatch {
         self.dirs.is_empty()
     }
 
-    fn push(&mut self, view: &ViewRays, pixel: u32) {
+    fn push(&mut self, v: u32, view: &ViewRays, pixel: u32) {
+        self.pixels.push((v, pixel));
         let (x, y) = (pixel % view.width, pixel / view.width);
         let ray = view.camera.ray(x as f64, y as f64);
         self.origins.push(ray.origin.as_vec3().to_array());
@@ -152,6 +163,7 @@ impl TrainingRays {
             views,
             foreground,
             silhouette: Vec::new(),
+            error_map: None,
             saturation: dataset.saturation,
         }
     }
@@ -176,6 +188,30 @@ impl TrainingRays {
         }
     }
 
+    /// Starts error-guided draws over `tile` × `tile` pixel tiles (none
+    /// when `tile` is 0); every tile with a foreground pixel starts at
+    /// [`ErrorMap::INITIAL`].
+    pub fn set_error_map(&mut self, tile: u32) {
+        self.error_map = (tile > 0).then(|| {
+            let views: Vec<(u32, u32, Option<&[bool]>)> = self
+                .views
+                .iter()
+                .map(|v| (v.width, v.height, v.mask.as_deref()))
+                .collect();
+            ErrorMap::new(tile, &views)
+        });
+    }
+
+    /// The error map, when error-guided draws are on.
+    pub fn error_map(&self) -> Option<&ErrorMap> {
+        self.error_map.as_ref()
+    }
+
+    /// The error map, to record errors into or restore from a checkpoint.
+    pub fn error_map_mut(&mut self) -> Option<&mut ErrorMap> {
+        self.error_map.as_mut()
+    }
+
     /// Number of silhouette-band pixels over all views.
     pub fn silhouette_pixels(&self) -> usize {
         self.silhouette.len()
@@ -187,30 +223,36 @@ impl TrainingRays {
     }
 
     /// Draws `n` rays: `shares.foreground` of them from foreground pixels,
-    /// `shares.silhouette` from the silhouette band, the rest uniformly from
-    /// all pixels of all views (a kind with no pixels gives its share to
-    /// the uniform draws).
+    /// `shares.silhouette` from the silhouette band, `shares.error` in
+    /// proportion to the error map, the rest uniformly from all pixels of
+    /// all views (a kind with no pixels, or an error map that is off or all
+    /// zero, gives its share to the uniform draws).
     pub fn draw(&self, rng: &mut impl Rng, n: usize, shares: RayShares, out: &mut RayBatch) {
         *out = RayBatch::default();
-        let count = |pixels: &[(u32, u32)], share: f64| {
-            if pixels.is_empty() {
-                0
-            } else {
+        let count = |available: bool, share: f64| {
+            if available {
                 ((n as f64) * share).round() as usize
+            } else {
+                0
             }
         };
-        let n_fg = count(&self.foreground, shares.foreground).min(n);
-        let n_band = count(&self.silhouette, shares.silhouette).min(n - n_fg);
+        let n_fg = count(!self.foreground.is_empty(), shares.foreground).min(n);
+        let n_band = count(!self.silhouette.is_empty(), shares.silhouette).min(n - n_fg);
         for (pixels, draws) in [(&self.foreground, n_fg), (&self.silhouette, n_band)] {
             for _ in 0..draws {
                 let (v, p) = pixels[rng.random_range(0..pixels.len())];
-                out.push(&self.views[v as usize], p);
+                out.push(v, &self.views[v as usize], p);
             }
         }
-        for _ in n_fg + n_band..n {
-            let view = &self.views[rng.random_range(0..self.views.len())];
+        if let Some(map) = &self.error_map {
+            let n_err = count(true, shares.error).min(n - out.len());
+            map.draw(rng, n_err, |v, p| out.push(v, &self.views[v as usize], p));
+        }
+        for _ in out.len()..n {
+            let v = rng.random_range(0..self.views.len());
+            let view = &self.views[v];
             let p = rng.random_range(0..view.width * view.height);
-            out.push(view, p);
+            out.push(v as u32, view, p);
         }
     }
 
@@ -219,7 +261,7 @@ impl TrainingRays {
         let view = &self.views[v];
         let mut out = RayBatch::default();
         for p in 0..view.width * view.height {
-            out.push(view, p);
+            out.push(v as u32, view, p);
         }
         out
     }
@@ -305,6 +347,7 @@ mod tests {
                 .map(|p| (0, p))
                 .collect(),
             silhouette: Vec::new(),
+            error_map: None,
             saturation: None,
             has_masks: true,
         };
@@ -314,6 +357,7 @@ mod tests {
         let shares = RayShares {
             foreground: 0.5,
             silhouette: 0.25,
+            error: 0.0,
         };
         let mut rng = rand_pcg::Pcg64::seed_from_u64(7);
         let mut batch = RayBatch::default();
@@ -349,7 +393,7 @@ mod tests {
         let mut plain = RayBatch::default();
         let no_band = RayShares {
             foreground: 0.5,
-            silhouette: 0.0,
+            ..RayShares::default()
         };
         rays.draw(
             &mut rand_pcg::Pcg64::seed_from_u64(7),
@@ -358,5 +402,39 @@ mod tests {
             &mut plain,
         );
         assert_eq!(again.target, plain.target);
+
+        // Error-guided draws: with one 4×4 tile measured far worse than the
+        // rest, the error share lands almost only there; the batch still
+        // has n rays, and each remembers the pixel it came from.
+        rays.set_error_map(4);
+        let map = rays.error_map_mut().unwrap();
+        for p in 0..w * h {
+            let (x, y) = (p % w, p / w);
+            let hot = (8..12).contains(&x) && (8..12).contains(&y);
+            for _ in 0..30 {
+                map.record(0, p, if hot { 2.0 } else { 0.001 });
+            }
+        }
+        let guided = RayShares {
+            foreground: 0.5,
+            silhouette: 0.0,
+            error: 0.25,
+        };
+        let mut batch = RayBatch::default();
+        rays.draw(&mut rng, 400, guided, &mut batch);
+        assert_eq!(batch.len(), 400);
+        let drawn: Vec<u32> = batch.target.iter().map(|t| t[0] as u32).collect();
+        assert!(
+            batch
+                .pixels
+                .iter()
+                .zip(&drawn)
+                .all(|((v, p), d)| *v == 0 && p == d)
+        );
+        let hot = drawn[200..300]
+            .iter()
+            .filter(|p| (8..12).contains(&(**p % w)) && (8..12).contains(&(**p / w)))
+            .count();
+        assert!(hot >= 95, "{hot} of 100 error draws in the hot tile");
     }
 }

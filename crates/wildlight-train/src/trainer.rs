@@ -116,6 +116,11 @@ impl Trainer {
         } else {
             0
         });
+        rays.set_error_map(if config.error_fraction > 0.0 {
+            config.error_tile
+        } else {
+            0
+        });
         let model = Model::new(&config.model, config.seed)?;
         let mut adam = Adam::new();
         let o = &config.optim;
@@ -262,6 +267,7 @@ impl Trainer {
         let shares = RayShares {
             foreground: cfg.foreground_fraction,
             silhouette: cfg.silhouette_fraction,
+            error: cfg.error_fraction,
         };
         self.rays
             .draw(&mut rng, cfg.batch_rays, shares, &mut self.batch);
@@ -333,6 +339,7 @@ impl Trainer {
             &mut self.grads,
         );
         let (smoothness, normal_smoothness) = self.smoothness_priors(&mut rng, settings.fd_step);
+        self.record_errors(&counts);
         let cfg = &self.config;
         let loss = cfg.loss.color * color
             + cfg.loss.mask * mask
@@ -364,6 +371,27 @@ impl Trainer {
             samples: self.pipeline.n_samples(),
             occupied: self.grid.occupied_fraction() as f64,
             skipped,
+        }
+    }
+
+    /// Feeds each counted ray's colour error (the summed L1 error of its
+    /// counted channels, as in the loss) into the error map, when there is one.
+    fn record_errors(&mut self, counts: &[bool]) {
+        let cap = self.rays.saturation;
+        let Some(map) = self.rays.error_map_mut() else {
+            return;
+        };
+        let batch = &self.batch;
+        for (i, &(view, pixel)) in batch.pixels.iter().enumerate() {
+            if !counts[i] {
+                continue;
+            }
+            let (p, t) = (self.pipeline.colour[i], batch.target[i]);
+            let error: f32 = (0..3)
+                .filter(|&c| !crate::loss::saturated(p[c], t[c], cap))
+                .map(|c| (p[c] - t[c]).abs())
+                .sum();
+            map.record(view, pixel, error);
         }
     }
 
@@ -454,6 +482,9 @@ impl Trainer {
         w.set_metadata("occupancy.resolution", &grid.resolution.to_string());
         w.set_metadata("occupancy.band", &format!("{:e}", grid.band));
         w.set_metadata("occupancy.round", &grid.round.to_string());
+        if let Some(map) = self.rays.error_map() {
+            w.add("error_map", &[map.values().len()], map.values());
+        }
         w.set_metadata("step", &self.step.to_string());
         w.set_metadata("lr_scale", &format!("{:e}", self.lr_scale));
         w.set_metadata("skipped_steps", &self.skipped_steps.to_string());
@@ -485,6 +516,17 @@ impl Trainer {
             self.plan_total_steps(total.parse().context("planned_total_steps")?);
         }
         self.apply_step_schedule();
+        if let Some(map) = self.rays.error_map_mut() {
+            // absent in checkpoints of runs without error-guided draws: the
+            // map keeps its initial estimates
+            if ck.contains("error_map") {
+                let mut values = vec![0.0f32; map.values().len()];
+                ck.read_into("error_map", &[values.len()], &mut values)
+                    .with_context(|| format!("{}: error map", path.display()))?;
+                map.set_values(&values)
+                    .map_err(|e| anyhow::anyhow!("{}: error map: {e}", path.display()))?;
+            }
+        }
         // The occupancy grid as it was (measured at the last refresh step,
         // from the field of that time), so that the run continues exactly.
         let resolution: usize = meta("occupancy.resolution")?

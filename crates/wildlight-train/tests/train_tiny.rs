@@ -116,12 +116,23 @@ fn resumed_training_continues_exactly() {
     // own random stream, so a resumed run still continues exactly. The
     // default ambient form's room field and its optimiser state survive a
     // checkpoint too.
-    check_resume(AmbientModel::NeuralRoom, DEFAULT_SMOOTHNESS);
+    check_resume(AmbientModel::NeuralRoom, DEFAULT_SMOOTHNESS, |_| {});
+}
+
+/// Error-guided draws depend on the error map that earlier steps measured,
+/// so the map travels in the checkpoint; a resumed run draws the same rays.
+#[test]
+fn resumed_training_with_error_guided_draws_continues_exactly() {
+    check_resume(AmbientModel::NeuralRoom, DEFAULT_SMOOTHNESS, |c| {
+        c.foreground_fraction = 0.4;
+        c.error_fraction = 0.4;
+        c.error_tile = 3;
+    });
 }
 
 #[test]
 fn resumed_training_of_the_plain_neural_ambient_without_the_material_prior_continues_exactly() {
-    check_resume(AmbientModel::Neural, 0.0);
+    check_resume(AmbientModel::Neural, 0.0, |_| {});
 }
 
 /// The default weight of the material smoothness prior.
@@ -131,10 +142,14 @@ const DEFAULT_SMOOTHNESS: f64 = 0.05;
 /// state survive a checkpoint too.
 #[test]
 fn resumed_training_with_the_diffuse_specular_ambient_continues_exactly() {
-    check_resume(AmbientModel::DiffuseSpecular, DEFAULT_SMOOTHNESS);
+    check_resume(AmbientModel::DiffuseSpecular, DEFAULT_SMOOTHNESS, |_| {});
 }
 
-fn check_resume(ambient_model: AmbientModel, material_smoothness: f64) {
+fn check_resume(
+    ambient_model: AmbientModel,
+    material_smoothness: f64,
+    adjust: impl Fn(&mut TrainConfig) + Sync,
+) {
     let dir = tempfile::tempdir().unwrap();
     let dataset = capture(dir.path(), 6, 24);
     let pool = rayon::ThreadPoolBuilder::new()
@@ -147,6 +162,7 @@ fn check_resume(ambient_model: AmbientModel, material_smoothness: f64) {
         config.batch_rays = 96;
         config.model.ambient_model = ambient_model;
         config.loss.material_smoothness = material_smoothness;
+        adjust(&mut config);
         let mut straight = Trainer::new(config.clone(), TrainingRays::new(&dataset)).unwrap();
         let mut smoothness = Vec::new();
         for _ in 0..n {
@@ -192,6 +208,13 @@ fn check_resume(ambient_model: AmbientModel, material_smoothness: f64) {
         assert_eq!(specular(a).is_some(), ambient_model != AmbientModel::Neural);
         assert_eq!(a.sharpness.to_bits(), b.sharpness.to_bits());
         assert_eq!(a.log_gain.to_bits(), b.log_gain.to_bits());
+        let map = |t: &Trainer| t.rays().error_map().map(|m| m.values().to_vec());
+        assert_eq!(map(&straight), map(&second));
+        if let Some(values) = map(&straight) {
+            // the steps measured tiles
+            let initial = wildlight_train::error_map::ErrorMap::INITIAL;
+            assert!(values.iter().any(|v| *v > 0.0 && *v != initial));
+        }
         // and training did move the parameters
         let fresh = Trainer::new(small_config(n), TrainingRays::new(&dataset)).unwrap();
         assert_ne!(fresh.model.sdf.field.mlp.params, a.sdf.field.mlp.params);
