@@ -31,17 +31,11 @@ printf '\n[output]\ncheckpoint_every = 1000\npreview_every = 100000\n' >> "$out/
 /usr/bin/time -v -o "$out/train.time" \
   "$W" train --data "$cap" --out "$out/run" --config "$out/bench.toml" \
   --iters "$iters" --seed "${SEED:-0}" --quiet > "$out/train.log" 2>&1
-"$W" render --run "$out/run" --data "$cap" --split val --out "$out/render-val" --quiet > "$out/render.log" 2>&1
-"$W" export --run "$out/run" --out "$out/asset" --normalized --resolution 256 --faces 65536 \
-  --texture 1024 --quiet > "$out/export.log" 2>&1
-"$W" eval mesh --pred "$out/asset/mesh_raw.ply" --gt "$cap/gt/mesh_normalized.ply" \
-  --cameras "$cap" --frame normalized --json > "$out/mesh.json"
-"$W" eval materials --pred "$out/render-val" --gt "$cap" --split val --json > "$out/materials.json"
-"$W" eval images --pred "$out/render-val" --gt "$cap" --json > "$out/images.json"
+WILDLIGHT="$W" "$root/scripts/score-model.sh" "$out/run" "$cap"
 python3 - "$out" <<'PY' | tee "$out/result.json"
 import json, sys
 out = sys.argv[1]
-load = lambda name: json.load(open(f"{out}/{name}"))
+load = lambda name: json.load(open(f"{out}/run/{name}"))
 mesh, mat, img = load("mesh.json"), load("materials.json"), load("images.json")
 dist = mesh.get("distance", mesh)
 print(json.dumps({

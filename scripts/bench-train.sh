@@ -8,7 +8,7 @@
 #
 #   [SEED=S] scripts/bench-train.sh [OUT_DIR] [BUDGET_MINUTES] [SNAPSHOT_MINUTES] [EXTRA.toml]
 #
-# EXTRA.toml (optional) is appended to the run's configuration, to benchmark
+# EXTRA.toml (optional) is prepended to the run's configuration, to benchmark
 # a setting against the defaults. SEED (default 0) is the training seed, for
 # repeated runs whose median is the benchmark's result.
 #
@@ -29,11 +29,13 @@ if [ ! -f "$cap/cameras_sphere.npz" ]; then
 fi
 run="$out/run"
 rm -rf "$run"
-# checkpoints often enough that a snapshot is never more than ~20 s old
-printf '[output]\ncheckpoint_every = 100\npreview_every = 1000\n' > "$out/bench.toml"
+# the extra settings first, so that their top-level keys stay top-level;
+# then checkpoints often enough that a snapshot is never more than ~20 s old
+: > "$out/bench.toml"
 if [ -n "$extra" ]; then
   cat "$extra" >> "$out/bench.toml"
 fi
+printf '\n[output]\ncheckpoint_every = 100\npreview_every = 1000\n' >> "$out/bench.toml"
 /usr/bin/time -v -o "$out/train.time" \
   "$W" train --data "$cap" --out "$run" --config "$out/bench.toml" \
   --iters 100000 --time-budget "${budget}m" --seed "${SEED:-0}" &
@@ -64,13 +66,7 @@ if [ -z "$last" ] || ! cmp -s "$run/checkpoint.safetensors" "$last/checkpoint.sa
 fi
 : > "$out/curve.jsonl"
 for snap in "$out"/snap_*; do
-  "$W" render --run "$snap" --data "$cap" --split val --out "$snap/render-val" --quiet > "$snap/render.log" 2>&1
-  "$W" export --run "$snap" --out "$snap/asset" --normalized --resolution 256 --faces 65536 \
-    --texture 1024 --quiet > "$snap/export.log" 2>&1
-  "$W" eval mesh --pred "$snap/asset/mesh_raw.ply" --gt "$cap/gt/mesh_normalized.ply" \
-    --cameras "$cap" --frame normalized --json > "$snap/mesh.json"
-  "$W" eval materials --pred "$snap/render-val" --gt "$cap" --split val --json > "$snap/materials.json"
-  "$W" eval images --pred "$snap/render-val" --gt "$cap" --json > "$snap/images.json"
+  WILDLIGHT="$W" "$root/scripts/score-model.sh" "$snap" "$cap"
   python3 - "$snap" <<'PY' | tee -a "$out/curve.jsonl"
 import json, sys
 snap = sys.argv[1]
