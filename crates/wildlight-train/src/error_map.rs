@@ -83,11 +83,6 @@ impl ErrorMap {
         }
     }
 
-    /// Tile size in pixels.
-    pub fn tile(&self) -> u32 {
-        self.tile
-    }
-
     /// The error estimates (view-major, row-major tiles), for checkpoints.
     pub fn values(&self) -> &[f32] {
         &self.values
