@@ -18,6 +18,7 @@ use std::path::Path;
 use wildlight_data::RgbImage;
 use wildlight_data::exr_io::read_exr_rgb;
 use wildlight_data::png_io::read_mask_png;
+use wildlight_eval::material_eval::{Split, evaluate_materials};
 use wildlight_eval::rendered_views::read_views;
 
 /// Groups covering less than this share of the pixels are pooled as "other".
@@ -127,12 +128,10 @@ fn main() -> Result<()> {
     if pixels.is_empty() {
         bail!("{}: no held-out view with mask pixels", render.display());
     }
-    // Per-channel least-squares scale, as `eval materials` aligns base colour.
-    let scale = [0, 1, 2].map(|c| {
-        let pg: f64 = pixels.iter().map(|p| p.pred_base[c] * p.gt_base[c]).sum();
-        let pp: f64 = pixels.iter().map(|p| p.pred_base[c] * p.pred_base[c]).sum();
-        if pp > 0.0 { pg / pp } else { 1.0 }
-    });
+    // The per-channel scale of the metric itself (`eval materials`).
+    let scale = evaluate_materials(render, Path::new(capture), Split::Val)?
+        .base_color_scale
+        .context("no base colour pixels to align")?;
     let base_sq = |p: &Pixel| {
         (0..3)
             .map(|c| (scale[c] * p.pred_base[c] - p.gt_base[c]).powi(2))
