@@ -63,7 +63,12 @@ fn read_view_pixels(render: &Path, val: &Path, index: usize, flash: bool) -> Res
     let mask =
         read_mask_png(&mask_path).with_context(|| format!("reading {}", mask_path.display()))?;
     for (what, image) in [
-        ("prediction", &pred_base),
+        ("true base colour", &gt_base),
+        ("true roughness", &gt_rough),
+        ("true metallic", &gt_metal),
+        ("predicted base colour", &pred_base),
+        ("predicted roughness", &pred_rough),
+        ("predicted metallic", &pred_metal),
         ("photo", &gt_image),
         ("rendering", &pred_image),
     ] {

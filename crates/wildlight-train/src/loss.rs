@@ -47,8 +47,18 @@ pub fn colour_l1(
 /// Whether a channel is left out of the colour loss (SPEC §4: both the
 /// prediction and the observation are ≥ the cap).
 #[inline]
-pub fn saturated(pred: f32, obs: f32, cap: Option<f32>) -> bool {
+fn saturated(pred: f32, obs: f32, cap: Option<f32>) -> bool {
     cap.is_some_and(|c| pred >= c && obs >= c)
+}
+
+/// One ray's colour error under the rule of [`colour_l1`]: the summed
+/// absolute error of its channels that are not saturated.
+#[inline]
+pub fn counted_l1(pred: [f32; 3], obs: [f32; 3], cap: Option<f32>) -> f32 {
+    (0..3)
+        .filter(|&c| !saturated(pred[c], obs[c], cap))
+        .map(|c| (pred[c] - obs[c]).abs())
+        .sum()
 }
 
 /// Mean binary cross-entropy between Σw (clamped to [1e-3, 1 − 1e-3]) and
@@ -94,6 +104,9 @@ mod tests {
         assert!((mse - (0.0625 + 0.04) / 2.0).abs() < 1e-6);
         assert_eq!(d[0], [1.0, 0.0, -1.0]);
         assert_eq!(d[1], [0.0; 3]);
+        // the same rule for one ray's error: red and blue, not green
+        assert!((counted_l1(pred[0], target[0], Some(1.0)) - 0.45).abs() < 1e-6);
+        assert!((counted_l1(pred[0], target[0], None) - 0.65).abs() < 1e-6);
     }
 
     #[test]

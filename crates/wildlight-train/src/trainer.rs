@@ -5,7 +5,7 @@
 //! continues exactly.
 
 use crate::config::TrainConfig;
-use crate::loss::{colour_l1, mask_bce, psnr};
+use crate::loss::{colour_l1, counted_l1, mask_bce, psnr};
 use crate::model::{Model, ModelGrads};
 use crate::normal_smoothness::NormalSmoothness;
 use crate::pipeline::{PassSettings, Pipeline, RayInputs, eval_sdf};
@@ -386,12 +386,11 @@ impl Trainer {
             if !counts[i] {
                 continue;
             }
-            let (p, t) = (self.pipeline.colour[i], batch.target[i]);
-            let error: f32 = (0..3)
-                .filter(|&c| !crate::loss::saturated(p[c], t[c], cap))
-                .map(|c| (p[c] - t[c]).abs())
-                .sum();
-            map.record(view, pixel, error);
+            map.record(
+                view,
+                pixel,
+                counted_l1(self.pipeline.colour[i], batch.target[i], cap),
+            );
         }
     }
 
