@@ -23,11 +23,7 @@ if [ ! -f "$cap/cameras_sphere.npz" ]; then
 fi
 rm -rf "$out"
 mkdir -p "$out"
-: > "$out/bench.toml"
-if [ -n "$extra" ]; then
-  cat "$extra" >> "$out/bench.toml"
-fi
-printf '\n[output]\ncheckpoint_every = 1000\npreview_every = 100000\n' >> "$out/bench.toml"
+"$root/scripts/bench-config.sh" "$out/bench.toml" 1000 100000 "$extra"
 /usr/bin/time -v -o "$out/train.time" \
   "$W" train --data "$cap" --out "$out/run" --config "$out/bench.toml" \
   --iters "$iters" --seed "${SEED:-0}" --quiet > "$out/train.log" 2>&1

@@ -29,13 +29,8 @@ if [ ! -f "$cap/cameras_sphere.npz" ]; then
 fi
 run="$out/run"
 rm -rf "$run"
-# the extra settings first, so that their top-level keys stay top-level;
-# then checkpoints often enough that a snapshot is never more than ~20 s old
-: > "$out/bench.toml"
-if [ -n "$extra" ]; then
-  cat "$extra" >> "$out/bench.toml"
-fi
-printf '\n[output]\ncheckpoint_every = 100\npreview_every = 1000\n' >> "$out/bench.toml"
+# checkpoints often enough that a snapshot is never more than ~20 s old
+"$root/scripts/bench-config.sh" "$out/bench.toml" 100 1000 "$extra"
 /usr/bin/time -v -o "$out/train.time" \
   "$W" train --data "$cap" --out "$run" --config "$out/bench.toml" \
   --iters 100000 --time-budget "${budget}m" --seed "${SEED:-0}" &
