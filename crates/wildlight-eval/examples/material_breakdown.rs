@@ -5,7 +5,9 @@
 //! prediction, after the per-channel scale alignment of `eval materials`),
 //! its mean roughness and metallic, its share of the base colour's squared
 //! error, and its share of the squared image error (values clipped at 1) in
-//! the flash and the no-flash views.
+//! the flash and the no-flash views. A second table gives, per group, the
+//! other parameters of Θ (dielectric specular, clearcoat, clearcoat gloss,
+//! subsurface), truth and prediction, read from the `params` maps.
 //!
 //! ```sh
 //! wildlight render --run RUN --data CAPTURE --split val --out RENDER
@@ -16,78 +18,84 @@ use anyhow::{Context, Result, bail};
 use std::collections::BTreeMap;
 use std::path::Path;
 use wildlight_data::RgbImage;
-use wildlight_data::exr_io::read_exr_rgb;
+use wildlight_data::exr_io::{read_exr_channels, read_exr_rgb};
 use wildlight_data::png_io::read_mask_png;
 use wildlight_eval::material_eval::{Split, evaluate_materials};
 use wildlight_eval::rendered_views::read_views;
+use wildlight_material::{
+    BASE_COLOR, CLEARCOAT, CLEARCOAT_GLOSS, DIELECTRIC, METALLIC, PARAM_COUNT, ROUGHNESS,
+    SUBSURFACE,
+};
 
 /// Groups covering less than this share of the pixels are pooled as "other".
 const MIN_SHARE: f64 = 0.005;
 
+/// The parameters of the second table: (index in Θ, column title).
+const OTHER_PARAMS: [(usize, &str); 4] = [
+    (DIELECTRIC, "dielectric"),
+    (CLEARCOAT, "clearcoat"),
+    (CLEARCOAT_GLOSS, "cc gloss"),
+    (SUBSURFACE, "subsurface"),
+];
+
 /// One mask pixel of one view.
 struct Pixel {
-    gt_base: [f64; 3],
-    pred_base: [f64; 3],
-    gt_rough: f64,
-    pred_rough: f64,
-    gt_metal: f64,
-    pred_metal: f64,
+    /// Θ of the ground truth.
+    gt: [f64; PARAM_COUNT],
+    /// Θ of the reconstruction.
+    pred: [f64; PARAM_COUNT],
     /// Squared image error summed over the channels.
     image_sq: f64,
     flash: bool,
 }
 
-fn rgb(image: &RgbImage, j: usize) -> [f64; 3] {
-    [0, 1, 2].map(|c| image.data[3 * j + c] as f64)
+/// The nine parameter planes of a `params` map (channels p0..p8).
+fn read_params(path: &Path) -> Result<(u32, u32, Vec<Vec<f32>>)> {
+    let exr = read_exr_channels(path).with_context(|| format!("reading {}", path.display()))?;
+    let planes = (0..PARAM_COUNT)
+        .map(|c| {
+            exr.channel(&format!("p{c}"))
+                .map(<[f32]>::to_vec)
+                .with_context(|| {
+                    format!("{}: no channel p{c} (has {})", path.display(), exr.names())
+                })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok((exr.width, exr.height, planes))
 }
 
 fn read_view_pixels(render: &Path, val: &Path, index: usize, flash: bool) -> Result<Vec<Pixel>> {
     let name = format!("{index:03}.exr");
-    let read = |dir: &Path, kind: &str| {
-        let path = dir.join(kind).join(&name);
+    let read = |dir: &Path| {
+        let path = dir.join("image").join(&name);
         read_exr_rgb(&path).with_context(|| format!("reading {}", path.display()))
     };
-    let gt = val.join("gt");
-    let (gt_base, gt_rough, gt_metal) = (
-        read(&gt, "base_color")?,
-        read(&gt, "roughness")?,
-        read(&gt, "metallic")?,
-    );
-    let (pred_base, pred_rough, pred_metal) = (
-        read(render, "base_color")?,
-        read(render, "roughness")?,
-        read(render, "metallic")?,
-    );
-    let (gt_image, pred_image) = (read(val, "image")?, read(render, "image")?);
+    let (gt_image, pred_image) = (read(val)?, read(render)?);
+    let gt = read_params(&val.join("gt").join("params").join(&name))?;
+    let pred = read_params(&render.join("params").join(&name))?;
     let mask_path = val.join("mask").join(format!("{index:03}.png"));
     let mask =
         read_mask_png(&mask_path).with_context(|| format!("reading {}", mask_path.display()))?;
-    for (what, image) in [
-        ("true base colour", &gt_base),
-        ("true roughness", &gt_rough),
-        ("true metallic", &gt_metal),
-        ("predicted base colour", &pred_base),
-        ("predicted roughness", &pred_rough),
-        ("predicted metallic", &pred_metal),
-        ("photo", &gt_image),
-        ("rendering", &pred_image),
+    let size = (mask.width, mask.height);
+    for (what, dims) in [
+        ("true parameter map", (gt.0, gt.1)),
+        ("predicted parameter map", (pred.0, pred.1)),
+        ("photo", (gt_image.width, gt_image.height)),
+        ("rendering", (pred_image.width, pred_image.height)),
     ] {
-        if (image.width, image.height) != (mask.width, mask.height) {
+        if dims != size {
             bail!("view {index}: the {what} is not the size of the mask");
         }
     }
+    let theta = |planes: &[Vec<f32>], j: usize| std::array::from_fn(|c| planes[c][j] as f64);
     Ok(mask
         .data
         .iter()
         .enumerate()
         .filter(|(_, inside)| **inside)
         .map(|(j, _)| Pixel {
-            gt_base: rgb(&gt_base, j),
-            pred_base: rgb(&pred_base, j),
-            gt_rough: gt_rough.data[3 * j] as f64,
-            pred_rough: pred_rough.data[3 * j] as f64,
-            gt_metal: gt_metal.data[3 * j] as f64,
-            pred_metal: pred_metal.data[3 * j] as f64,
+            gt: theta(&gt.2, j),
+            pred: theta(&pred.2, j),
             image_sq: (0..3)
                 .map(|c| {
                     let clip = |im: &RgbImage| im.data[3 * j + c].min(1.0) as f64;
@@ -103,11 +111,11 @@ fn read_view_pixels(render: &Path, val: &Path, index: usize, flash: bool) -> Res
 fn key(p: &Pixel) -> [i32; 5] {
     let q = |v: f64| (v / 0.05).round() as i32;
     [
-        q(p.gt_base[0]),
-        q(p.gt_base[1]),
-        q(p.gt_base[2]),
-        q(p.gt_rough),
-        q(p.gt_metal),
+        q(p.gt[BASE_COLOR]),
+        q(p.gt[BASE_COLOR + 1]),
+        q(p.gt[BASE_COLOR + 2]),
+        q(p.gt[ROUGHNESS]),
+        q(p.gt[METALLIC]),
     ]
 }
 
@@ -139,7 +147,7 @@ fn main() -> Result<()> {
         .context("no base colour pixels to align")?;
     let base_sq = |p: &Pixel| {
         (0..3)
-            .map(|c| (scale[c] * p.pred_base[c] - p.gt_base[c]).powi(2))
+            .map(|c| (scale[c] * p.pred[BASE_COLOR + c] - p.gt[BASE_COLOR + c]).powi(2))
             .sum::<f64>()
     };
     let total_base: f64 = pixels.iter().map(base_sq).sum();
@@ -183,8 +191,8 @@ fn main() -> Result<()> {
     for (k, members) in &groups {
         let n = members.len() as f64;
         let mean = |f: &dyn Fn(&Pixel) -> f64| members.iter().map(|p| f(p)).sum::<f64>() / n;
-        let gt = [0, 1, 2].map(|c| mean(&|p| p.gt_base[c]));
-        let pred = [0, 1, 2].map(|c| mean(&|p| scale[c] * p.pred_base[c]));
+        let gt = [0, 1, 2].map(|c| mean(&|p| p.gt[BASE_COLOR + c]));
+        let pred = [0, 1, 2].map(|c| mean(&|p| scale[c] * p.pred[BASE_COLOR + c]));
         let share = |sum: f64, total: f64| 100.0 * sum / total.max(f64::MIN_POSITIVE);
         let image_share = |flash: bool, total: f64| {
             share(
@@ -201,15 +209,37 @@ fn main() -> Result<()> {
             members.len(),
             format!("{:.2} {:.2} {:.2}", gt[0], gt[1], gt[2]),
             format!("{:.2} {:.2} {:.2}", pred[0], pred[1], pred[2]),
-            mean(&|p| p.gt_rough),
-            mean(&|p| p.pred_rough),
-            mean(&|p| p.gt_metal),
-            mean(&|p| p.pred_metal),
+            mean(&|p| p.gt[ROUGHNESS]),
+            mean(&|p| p.pred[ROUGHNESS]),
+            mean(&|p| p.gt[METALLIC]),
+            mean(&|p| p.pred[METALLIC]),
             share(members.iter().map(|p| base_sq(p)).sum(), total_base),
             image_share(true, flash_total),
             image_share(false, plain_total),
             if k.is_none() { "  (other)" } else { "" },
         );
+    }
+    // The rest of Θ, group by group in the same order (true / predicted
+    // means; the dielectric specular and the clearcoat scale the flash term
+    // with the gain, so compare them across groups rather than absolutely).
+    print!("\n{:>7} {:>20}", "pixels", "base truth");
+    for (_, title) in OTHER_PARAMS {
+        print!(" {:>13}", format!("{title} t / p"));
+    }
+    println!();
+    for (k, members) in &groups {
+        let n = members.len() as f64;
+        let mean = |f: &dyn Fn(&Pixel) -> f64| members.iter().map(|p| f(p)).sum::<f64>() / n;
+        let gt = [0, 1, 2].map(|c| mean(&|p| p.gt[BASE_COLOR + c]));
+        print!(
+            "{:>7} {:>20}",
+            members.len(),
+            format!("{:.2} {:.2} {:.2}", gt[0], gt[1], gt[2])
+        );
+        for (i, _) in OTHER_PARAMS {
+            print!(" {:>6.3} {:.3}", mean(&|p| p.gt[i]), mean(&|p| p.pred[i]));
+        }
+        println!("{}", if k.is_none() { "  (other)" } else { "" });
     }
     Ok(())
 }

@@ -7,20 +7,34 @@
 //! changes both the flash term's cosine and the ambient field's input.
 //! Such bumps fit the training photos and spoil every other view, and the
 //! speckle they leave in the normals makes a sharp specular lobe look worse
-//! than a blurred one. For pairs (x_j, x_j + ε_j), x_j on the surface (the
-//! expected hit point of a foreground ray) and ε_j a small random offset,
+//! than a blurred one. For points x_j on the surface (the expected hit
+//! points of foreground rays) and small random offsets ε_j,
 //!
-//! L_normal = λ · (1/m) Σ_j ρ(‖n(x_j) − n(x_j + ε_j)‖),
+//! L_normal = λ · (1/m) Σ_j ρ(‖Δ_j‖),
 //!
 //! with n = ∇φ/|∇φ| the normal the renderer shades with (the SDF's
-//! finite-difference gradient at the same step) and ρ(d) = sqrt(d² + η²) − η
-//! a pseudo-Huber penalty: quadratic below η, linear above, so that a crease
-//! costs no more than its length while speckle is pushed out. Only the SDF
-//! field receives the gradient (the points are held fixed). The prior is the
-//! project's addition: SPEC §4 names "curvature or normal smoothness" as
-//! welcome when measured to help. Its weight is `loss.normal_smoothness`; 0
-//! turns it off.
+//! finite-difference gradient at the same step), ρ(d) = sqrt(d² + η²) − η
+//! a pseudo-Huber penalty (quadratic below η, linear above, so that a
+//! crease costs no more than its length while speckle is pushed out) and Δ
+//! one of two differences ([`NormalDifference`]):
+//!
+//! - first: Δ = n(x + ε) − n(x). Curvature itself costs: a part of radius R
+//!   pays about λ·|ε|/R per pair, so small tightly curved parts are pulled
+//!   flatter;
+//! - second: Δ = P (n(x + ε) + n(x − ε) − 2 n(x)), P = I − n(x) n(x)ᵀ the
+//!   projection onto the tangent plane at x. For ε in that plane (the
+//!   trainer projects its offsets there, with the rays' expected normals),
+//!   n(x + ε) + n(x − ε) is parallel to n(x) on a sphere or a cylinder of
+//!   any radius, so Δ = 0 there: only a change of curvature (speckle, a
+//!   bump, a crease) costs. A third point per pair, x − ε, makes it cost
+//!   1.5 times the first difference's normal evaluations.
+//!
+//! Only the SDF field receives the gradient (the points are held fixed).
+//! The prior is the project's addition: SPEC §4 names "curvature or normal
+//! smoothness" as welcome when measured to help. Its weight is
+//! `loss.normal_smoothness`; 0 turns it off.
 
+use crate::config::NormalDifference;
 use crate::float::{Float, dot3, of, sqrt, to_f64, unit3, unit3_backward};
 use crate::smoothness::pair_points;
 use wildlight_fields::{FdScheme, FieldGrads, NormalContext, SdfField};
@@ -37,6 +51,32 @@ pub fn pseudo_huber<T: Float>(d: [T; 3]) -> (T, [T; 3]) {
     (r - eta, d.map(|v| v / r))
 }
 
+/// The second difference of three unit normals n₀ = n(x), n₁ = n(x + ε),
+/// n₂ = n(x − ε): s = n₁ + n₂ − 2 n₀ and its tangential part Δ = s −
+/// (s·n₀) n₀.
+#[derive(Clone, Copy, Debug)]
+pub struct SecondDifference<T> {
+    /// Δ, the part of s tangent to the surface at x.
+    pub tangential: [T; 3],
+    /// s.
+    pub sum: [T; 3],
+    /// s·n₀.
+    pub along_normal: T,
+}
+
+/// [`SecondDifference`] of the normals `n0` (at x), `n1` and `n2`.
+#[inline]
+pub fn second_difference<T: Float>(n0: [T; 3], n1: [T; 3], n2: [T; 3]) -> SecondDifference<T> {
+    let two = of::<T>(2.0);
+    let sum = [0, 1, 2].map(|a| n1[a] + n2[a] - two * n0[a]);
+    let along_normal = dot3(sum, n0);
+    SecondDifference {
+        tangential: [0, 1, 2].map(|a| sum[a] - along_normal * n0[a]),
+        sum,
+        along_normal,
+    }
+}
+
 /// Buffers of the normal smoothness term between calls.
 #[derive(Default)]
 pub struct NormalSmoothness<T> {
@@ -48,15 +88,18 @@ pub struct NormalSmoothness<T> {
 }
 
 impl<T: Float + Default> NormalSmoothness<T> {
-    /// Evaluates λ · L_normal for the pairs (centres[j], centres[j] +
-    /// offsets[j]), with normals from the tetrahedral finite differences of
-    /// step `fd_step`, and ADDS its gradient with respect to the SDF field's
-    /// parameters into `grads`. Returns the unweighted mean of ρ.
+    /// Evaluates λ · L_normal with the difference `difference` around the
+    /// points `centres[j]` and their offsets `offsets[j]`, with normals from
+    /// the tetrahedral finite differences of step `fd_step`, and ADDS its
+    /// gradient with respect to the SDF field's parameters into `grads`.
+    /// Returns the unweighted mean of ρ.
+    #[allow(clippy::too_many_arguments)]
     pub fn forward_backward(
         &mut self,
         sdf: &SdfField<T>,
         centres: &[[T; 3]],
         offsets: &[[T; 3]],
+        difference: NormalDifference,
         fd_step: f64,
         weight: T,
         grads: &mut FieldGrads<T>,
@@ -65,29 +108,60 @@ impl<T: Float + Default> NormalSmoothness<T> {
         if m == 0 {
             return 0.0;
         }
+        if difference == NormalDifference::Second {
+            // The third set of points: centre − offset.
+            self.points.extend(
+                centres[..m]
+                    .iter()
+                    .zip(offsets)
+                    .map(|(c, e)| [c[0] - e[0], c[1] - e[1], c[2] - e[2]]),
+            );
+        }
+        let n_points = self.points.len();
         sdf.forward_with_normals(&self.points, FdScheme::Tetrahedral, fd_step, &mut self.ctx);
         let scale = weight / of(m as f64);
         let mut sum = 0.0f64;
         self.d_gradient.clear();
-        self.d_gradient.resize(2 * m, [T::ZERO; 3]);
-        let (gn, gf) = self.ctx.gradient.split_at(m);
-        let (d_near, d_far) = self.d_gradient.split_at_mut(m);
-        for (((ga, gb), da), db) in gn.iter().zip(gf).zip(d_near).zip(d_far) {
-            let (na, len_a) = unit3(*ga);
-            let (nb, len_b) = unit3(*gb);
-            let d = [na[0] - nb[0], na[1] - nb[1], na[2] - nb[2]];
-            let (rho, u) = pseudo_huber(d);
-            sum += to_f64(rho);
-            // ∂ρ/∂n_a = u, ∂ρ/∂n_b = −u, then through n = g/|g|.
-            let u = u.map(|v| scale * v);
-            *da = unit3_backward(u, na, len_a);
-            *db = unit3_backward(u.map(|v| -v), nb, len_b);
+        self.d_gradient.resize(n_points, [T::ZERO; 3]);
+        let g = &self.ctx.gradient;
+        for j in 0..m {
+            let (n0, len0) = unit3(g[j]);
+            let (n1, len1) = unit3(g[m + j]);
+            match difference {
+                NormalDifference::First => {
+                    let d = [0, 1, 2].map(|a| n1[a] - n0[a]);
+                    let (rho, u) = pseudo_huber(d);
+                    sum += to_f64(rho);
+                    // ∂ρ/∂n(x + ε) = u, ∂ρ/∂n(x) = −u, then through n = g/|g|.
+                    let u = u.map(|v| scale * v);
+                    self.d_gradient[m + j] = unit3_backward(u, n1, len1);
+                    self.d_gradient[j] = unit3_backward(u.map(|v| -v), n0, len0);
+                }
+                NormalDifference::Second => {
+                    let (n2, len2) = unit3(g[2 * m + j]);
+                    let sd = second_difference(n0, n1, n2);
+                    let (sv, sn) = (sd.sum, sd.along_normal);
+                    let (rho, u) = pseudo_huber(sd.tangential);
+                    sum += to_f64(rho);
+                    // Δ = P s, s = n₁ + n₂ − 2 n₀, P = I − n₀ n₀ᵀ:
+                    // ∂ρ/∂n₁ = ∂ρ/∂n₂ = P u and
+                    // ∂ρ/∂n₀ = −2 P u − (n₀·s) u − (u·n₀) s.
+                    let u = u.map(|v| scale * v);
+                    let un = dot3(u, n0);
+                    let pu = [0, 1, 2].map(|a| u[a] - un * n0[a]);
+                    let two = of::<T>(2.0);
+                    let d0 = [0, 1, 2].map(|a| -two * pu[a] - sn * u[a] - un * sv[a]);
+                    self.d_gradient[m + j] = unit3_backward(pu, n1, len1);
+                    self.d_gradient[2 * m + j] = unit3_backward(pu, n2, len2);
+                    self.d_gradient[j] = unit3_backward(d0, n0, len0);
+                }
+            }
         }
         self.d_sdf.clear();
-        self.d_sdf.resize(2 * m, T::ZERO);
+        self.d_sdf.resize(n_points, T::ZERO);
         self.d_features.clear();
         self.d_features
-            .resize(2 * m * sdf.config().n_features, T::ZERO);
+            .resize(n_points * sdf.config().n_features, T::ZERO);
         sdf.backward_with_normals(
             &mut self.ctx,
             &self.d_sdf,

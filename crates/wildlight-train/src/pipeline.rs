@@ -306,6 +306,12 @@ impl<T: Float + Default> Pipeline<T> {
     /// The expected hit point Σ w_k x_k / Σw of every ray of the last pass
     /// whose Σw is at least `min_acc` (rays that meet the surface).
     pub fn surface_points(&self, min_acc: f64) -> Vec<[T; 3]> {
+        self.surface_points_with_normals(min_acc).0
+    }
+
+    /// [`Pipeline::surface_points`] and, for each, the unit expected normal
+    /// Σ w_k n_k / |Σ w_k n_k| (zero where that sum vanishes).
+    pub fn surface_points_with_normals(&self, min_acc: f64) -> (Vec<[T; 3]>, Vec<[T; 3]>) {
         let offsets = &self.samples.offsets;
         (0..offsets.len().saturating_sub(1))
             .filter_map(|r| {
@@ -313,16 +319,17 @@ impl<T: Float + Default> Pipeline<T> {
                 if to_f64(acc) < min_acc {
                     return None;
                 }
-                let mut p = [T::ZERO; 3];
+                let (mut p, mut n) = ([T::ZERO; 3], [T::ZERO; 3]);
                 for k in offsets[r] as usize..offsets[r + 1] as usize {
                     let (w, x) = (self.weights.weight[k], self.samples.positions[k]);
                     for a in 0..3 {
                         p[a] += w * x[a];
+                        n[a] += w * self.normals[k][a];
                     }
                 }
-                Some(p.map(|c| c / acc))
+                Some((p.map(|c| c / acc), unit3(n).0))
             })
-            .collect()
+            .unzip()
     }
 
     /// Backward pass of the last forward pass: `d_colour` = ∂L/∂C and

@@ -4,7 +4,8 @@
 //! step's random numbers come from (seed, step) alone, so a resumed run
 //! continues exactly.
 
-use crate::config::TrainConfig;
+use crate::config::{NormalDifference, TrainConfig};
+use crate::float::dot3;
 use crate::loss::{colour_l1, counted_l1, mask_bce, psnr};
 use crate::model::{Model, ModelGrads};
 use crate::normal_smoothness::NormalSmoothness;
@@ -406,12 +407,29 @@ impl Trainer {
         if loss.material_smoothness <= 0.0 && loss.normal_smoothness <= 0.0 {
             return (0.0, 0.0);
         }
-        let centres = self.pipeline.surface_points(0.5);
+        let (centres, normals) = self.pipeline.surface_points_with_normals(0.5);
         let r = loss.smoothness_radius as f32;
         let offsets: Vec<[f32; 3]> = centres
             .iter()
             .map(|_| [0; 3].map(|_| rng.random_range(-r..=r)))
             .collect();
+        // The second difference is zero on a circle only for x ± ε at the
+        // same height above the surface: its offsets are projected onto the
+        // tangent plane (of the rays' expected normals).
+        let tangent: Vec<[f32; 3]>;
+        let normal_offsets = if loss.normal_difference == NormalDifference::Second {
+            tangent = offsets
+                .iter()
+                .zip(&normals)
+                .map(|(e, n)| {
+                    let en = dot3(*e, *n);
+                    [0, 1, 2].map(|a| e[a] - en * n[a])
+                })
+                .collect();
+            &tangent
+        } else {
+            &offsets
+        };
         let material = if loss.material_smoothness > 0.0 {
             self.smoothness.forward_backward(
                 &self.model.material,
@@ -427,7 +445,8 @@ impl Trainer {
             self.normal_smoothness.forward_backward(
                 &self.model.sdf,
                 &centres,
-                &offsets,
+                normal_offsets,
+                loss.normal_difference,
                 fd_step,
                 loss.normal_smoothness as f32,
                 &mut self.grads.sdf,

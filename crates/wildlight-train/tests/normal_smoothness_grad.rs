@@ -1,12 +1,16 @@
-//! The normal smoothness prior: its value against a hand computation from
-//! the SDF's finite-difference normals, and its parameter gradient against
-//! central finite differences in f64.
+//! The normal smoothness prior, with the first and the second difference of
+//! the normals: its value against a hand computation from the SDF's
+//! finite-difference normals, its parameter gradient against central
+//! finite differences in f64, and what each difference costs on a sphere.
 
 mod common;
 
 use wildlight_fields::{FdScheme, NormalContext};
+use wildlight_train::config::NormalDifference;
 use wildlight_train::model::Model;
-use wildlight_train::normal_smoothness::{HUBER_ETA, NormalSmoothness, pseudo_huber};
+use wildlight_train::normal_smoothness::{
+    HUBER_ETA, NormalSmoothness, pseudo_huber, second_difference,
+};
 
 fn tiny_sdf_model() -> Model<f64> {
     let mut model = common::tiny_model(5);
@@ -32,12 +36,18 @@ const OFFSETS: [[f64; 3]; 4] = [
 const STEP: f64 = 0.02;
 const WEIGHT: f64 = 0.7;
 
+const DIFFERENCES: [NormalDifference; 2] = [NormalDifference::First, NormalDifference::Second];
+
 /// λ · L_normal and (when asked) its gradient.
-fn loss(model: &Model<f64>, grads: Option<&mut wildlight_fields::FieldGrads<f64>>) -> f64 {
+fn loss(
+    model: &Model<f64>,
+    difference: NormalDifference,
+    grads: Option<&mut wildlight_fields::FieldGrads<f64>>,
+) -> f64 {
     let mut term = NormalSmoothness::<f64>::default();
     let mut scratch = model.sdf.new_grads();
     let g = grads.unwrap_or(&mut scratch);
-    WEIGHT * term.forward_backward(&model.sdf, &CENTRES, &OFFSETS, STEP, WEIGHT, g)
+    WEIGHT * term.forward_backward(&model.sdf, &CENTRES, &OFFSETS, difference, STEP, WEIGHT, g)
 }
 
 fn unit(g: [f64; 3]) -> [f64; 3] {
@@ -45,34 +55,118 @@ fn unit(g: [f64; 3]) -> [f64; 3] {
     g.map(|v| v / l)
 }
 
+/// The unit normal of the model's SDF at `x`.
+fn normal_at(model: &Model<f64>, x: [f64; 3]) -> [f64; 3] {
+    let mut ctx = NormalContext::new();
+    model
+        .sdf
+        .forward_with_normals(&[x], FdScheme::Tetrahedral, STEP, &mut ctx);
+    unit(ctx.gradient[0])
+}
+
+fn pseudo_huber_by_hand(d: [f64; 3]) -> f64 {
+    let d2: f64 = d.iter().map(|v| v * v).sum();
+    (d2 + HUBER_ETA * HUBER_ETA).sqrt() - HUBER_ETA
+}
+
+/// Δ of the difference by hand, from the normals at x − ε, x and x + ε.
+fn difference_by_hand(
+    model: &Model<f64>,
+    c: [f64; 3],
+    e: [f64; 3],
+    which: NormalDifference,
+) -> [f64; 3] {
+    let n0 = normal_at(model, c);
+    let n1 = normal_at(model, [0, 1, 2].map(|a| c[a] + e[a]));
+    match which {
+        NormalDifference::First => [0, 1, 2].map(|a| n1[a] - n0[a]),
+        NormalDifference::Second => {
+            let n2 = normal_at(model, [0, 1, 2].map(|a| c[a] - e[a]));
+            let s = [0, 1, 2].map(|a| n1[a] + n2[a] - 2.0 * n0[a]);
+            let sn: f64 = (0..3).map(|a| s[a] * n0[a]).sum();
+            [0, 1, 2].map(|a| s[a] - sn * n0[a])
+        }
+    }
+}
+
 #[test]
 fn normal_smoothness_is_the_mean_pseudo_huber_difference_of_the_normals() {
     let model = tiny_sdf_model();
-    let mut ctx = NormalContext::new();
-    let mut by_hand = 0.0;
-    for (c, e) in CENTRES.iter().zip(&OFFSETS) {
-        let far = [c[0] + e[0], c[1] + e[1], c[2] + e[2]];
-        model
-            .sdf
-            .forward_with_normals(&[*c, far], FdScheme::Tetrahedral, STEP, &mut ctx);
-        let (a, b) = (unit(ctx.gradient[0]), unit(ctx.gradient[1]));
-        let d2: f64 = (0..3).map(|k| (a[k] - b[k]).powi(2)).sum();
-        by_hand += (d2 + HUBER_ETA * HUBER_ETA).sqrt() - HUBER_ETA;
-    }
-    by_hand /= CENTRES.len() as f64;
-    let value = loss(&model, None) / WEIGHT;
-    assert!(
-        value > 1e-2,
-        "the normals must turn across the pairs: {value}"
-    );
-    assert!((value - by_hand).abs() < 1e-12, "{value} vs {by_hand}");
+    for which in DIFFERENCES {
+        let by_hand = CENTRES
+            .iter()
+            .zip(&OFFSETS)
+            .map(|(c, e)| pseudo_huber_by_hand(difference_by_hand(&model, *c, *e, which)))
+            .sum::<f64>()
+            / CENTRES.len() as f64;
+        let value = loss(&model, which, None) / WEIGHT;
+        assert!(
+            value > 1e-2,
+            "{which:?}: the normals must turn across the points: {value}"
+        );
+        assert!(
+            (value - by_hand).abs() < 1e-12,
+            "{which:?}: {value} vs {by_hand}"
+        );
 
-    // No offset, no penalty and no gradient.
-    let mut term = NormalSmoothness::<f64>::default();
-    let mut g = model.sdf.new_grads();
-    let zero = term.forward_backward(&model.sdf, &CENTRES, &[[0.0; 3]; 4], STEP, 1.0, &mut g);
-    assert_eq!(zero, 0.0);
-    assert!(g.grid.iter().chain(&g.mlp).all(|v| *v == 0.0));
+        // No offset, no penalty and no gradient.
+        let mut term = NormalSmoothness::<f64>::default();
+        let mut g = model.sdf.new_grads();
+        let zero = term.forward_backward(
+            &model.sdf,
+            &CENTRES,
+            &[[0.0; 3]; 4],
+            which,
+            STEP,
+            1.0,
+            &mut g,
+        );
+        assert_eq!(zero, 0.0, "{which:?}");
+        assert!(g.grid.iter().chain(&g.mlp).all(|v| *v == 0.0), "{which:?}");
+    }
+}
+
+/// Along circles of any radius the tangential second difference vanishes
+/// (a sphere, a cylinder cost nothing), while the first difference grows
+/// with the offset over the radius; a bump in the middle is penalised.
+#[test]
+fn the_second_difference_ignores_constant_curvature() {
+    let norm = |v: [f64; 3]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    // x on both surfaces, ε tangent to both there (the prior's offsets are
+    // projected onto the tangent plane).
+    let c = [0.0, 0.25, 0.0];
+    let e = [0.03, 0.0, 0.02];
+    // A sphere of radius 0.25 and a cylinder of radius 0.25 along z.
+    let sphere = |x: [f64; 3]| unit(x);
+    let cylinder = |x: [f64; 3]| unit([x[0], x[1], 0.0]);
+    for (name, normal) in [
+        ("sphere", &sphere as &dyn Fn([f64; 3]) -> [f64; 3]),
+        ("cylinder", &cylinder),
+    ] {
+        let n0 = normal(c);
+        let n1 = normal([0, 1, 2].map(|a| c[a] + e[a]));
+        let n2 = normal([0, 1, 2].map(|a| c[a] - e[a]));
+        let first = norm([0, 1, 2].map(|a| n1[a] - n0[a]));
+        let second = second_difference(n0, n1, n2);
+        assert!(first > 0.1, "{name}: {first}");
+        assert!(
+            norm(second.tangential) < 1e-12,
+            "{name}: {:?}",
+            second.tangential
+        );
+        assert!(
+            norm(second.sum) > 1e-3,
+            "{name}: s must be along the normal, not zero"
+        );
+        // A tilted normal at x (a bump) shows up in Δ.
+        let tilted = unit([n0[0] + 0.05, n0[1], n0[2]]);
+        let bump = second_difference(tilted, n1, n2);
+        assert!(
+            norm(bump.tangential) > 0.05,
+            "{name}: {:?}",
+            bump.tangential
+        );
+    }
 }
 
 #[test]
@@ -87,10 +181,52 @@ fn pseudo_huber_is_quadratic_below_eta_and_linear_above() {
 
 #[test]
 fn normal_smoothness_gradient_matches_finite_differences() {
-    let mut model = tiny_sdf_model();
-    let mut grads = model.sdf.new_grads();
-    loss(&model, Some(&mut grads));
-    let probed =
-        common::check_field_gradient(&mut model, |m| &mut m.sdf.field, &grads, |m| loss(m, None));
-    assert!(probed >= 10, "only {probed} parameters had a gradient");
+    for which in DIFFERENCES {
+        let mut model = tiny_sdf_model();
+        let mut grads = model.sdf.new_grads();
+        loss(&model, which, Some(&mut grads));
+        // The normals are central differences of step 0.02, so the loss's
+        // rounding (~1e-16 of the SDF's values) reaches ~1e-10 in its own
+        // central differences: an absolute floor of 1e-5 (tolerance 1e-9).
+        let probed = common::check_field_gradient_with_floor(
+            &mut model,
+            |m| &mut m.sdf.field,
+            &grads,
+            |m| loss(m, which, None),
+            1e-5,
+        );
+        assert!(
+            probed >= 10,
+            "{which:?}: only {probed} parameters had a gradient"
+        );
+    }
+}
+
+/// The backward of the second difference, ∂ρ(Δ)/∂n for each of the three
+/// normals as the prior applies it, against central differences in n.
+#[test]
+fn second_difference_backward_matches_finite_differences() {
+    let n = [[0.3, 0.8, 0.5], [0.35, 0.75, 0.52], [0.28, 0.82, 0.45]];
+    let rho = |n: [[f64; 3]; 3]| pseudo_huber(second_difference(n[0], n[1], n[2]).tangential).0;
+    let sd = second_difference(n[0], n[1], n[2]);
+    let (_, u) = pseudo_huber(sd.tangential);
+    let un: f64 = (0..3).map(|a| u[a] * n[0][a]).sum();
+    let pu = [0, 1, 2].map(|a| u[a] - un * n[0][a]);
+    // The formulas of NormalSmoothness::forward_backward.
+    let d0 = [0, 1, 2].map(|a| -2.0 * pu[a] - sd.along_normal * u[a] - un * sd.sum[a]);
+    let analytic = [d0, pu, pu];
+    let h = 1e-6;
+    for k in 0..3 {
+        for a in 0..3 {
+            let (mut up, mut down) = (n, n);
+            up[k][a] += h;
+            down[k][a] -= h;
+            let numeric = (rho(up) - rho(down)) / (2.0 * h);
+            assert!(
+                (analytic[k][a] - numeric).abs() < 1e-7 * numeric.abs().max(1.0),
+                "normal {k} component {a}: {} vs {numeric}",
+                analytic[k][a]
+            );
+        }
+    }
 }
