@@ -10,6 +10,7 @@
 //! - [`loss`]: the losses of SPEC §4;
 //! - [`smoothness`]: an optional smoothness prior on the material field;
 //! - [`normal_smoothness`]: an optional smoothness prior on the normals;
+//! - [`metallic_prior`]: an optional prior pushing metallic towards 0 or 1;
 //! - [`trainer`]: the optimisation step, checkpoints;
 //! - [`render_view`]: rendering whole views and their maps;
 //! - [`preview`]: preview images;
@@ -21,6 +22,7 @@ pub mod error_map;
 pub mod float;
 pub mod inference;
 pub mod loss;
+pub mod metallic_prior;
 pub mod model;
 pub mod normal_smoothness;
 pub mod pipeline;

@@ -7,6 +7,7 @@
 use crate::config::{NormalDifference, TrainConfig};
 use crate::float::dot3;
 use crate::loss::{colour_l1, counted_l1, mask_bce, psnr};
+use crate::metallic_prior::BinaryMetallic;
 use crate::model::{Model, ModelGrads};
 use crate::normal_smoothness::NormalSmoothness;
 use crate::pipeline::{PassSettings, Pipeline, RayInputs, eval_sdf};
@@ -40,6 +41,9 @@ pub struct StepStats {
     /// The normal smoothness prior's mean pseudo-Huber difference over its
     /// pairs (`crate::normal_smoothness`; 0 when the prior is off).
     pub normal_smoothness: f64,
+    /// The binary-metallic prior's mean m (1 − m) over the surface points
+    /// (`crate::metallic_prior`; 0 when the prior is off).
+    pub binary_metallic: f64,
     /// PSNR of the batch's counted foreground channels (dB, peak 1).
     pub psnr: f64,
     /// NeuS sharpness s.
@@ -88,6 +92,7 @@ pub struct Trainer {
     pub pipeline: Pipeline,
     smoothness: MaterialSmoothness<f32>,
     normal_smoothness: NormalSmoothness<f32>,
+    binary_metallic: BinaryMetallic<f32>,
     rays: TrainingRays,
     adam: Adam<f32>,
     groups: Groups,
@@ -186,6 +191,7 @@ impl Trainer {
             pipeline: Pipeline::new(sampler),
             smoothness: MaterialSmoothness::default(),
             normal_smoothness: NormalSmoothness::default(),
+            binary_metallic: BinaryMetallic::default(),
             rays,
             adam,
             groups,
@@ -339,14 +345,16 @@ impl Trainer {
             &settings,
             &mut self.grads,
         );
-        let (smoothness, normal_smoothness) = self.smoothness_priors(&mut rng, settings.fd_step);
+        let (smoothness, normal_smoothness, binary_metallic) =
+            self.surface_priors(&mut rng, settings.fd_step);
         self.record_errors(&counts);
         let cfg = &self.config;
         let loss = cfg.loss.color * color
             + cfg.loss.mask * mask
             + cfg.loss.eikonal * eikonal
             + cfg.loss.material_smoothness * smoothness
-            + cfg.loss.normal_smoothness * normal_smoothness;
+            + cfg.loss.normal_smoothness * normal_smoothness
+            + cfg.loss.binary_metallic * binary_metallic;
         let lr_factor = self.schedule.factor(step) * self.lr_scale;
         let skipped = !loss.is_finite() || !self.grads.all_finite();
         if skipped {
@@ -365,6 +373,7 @@ impl Trainer {
             eikonal,
             smoothness,
             normal_smoothness,
+            binary_metallic,
             psnr: psnr(mse, 1.0),
             s: self.model.s() as f64,
             gamma: self.model.gamma() as f64,
@@ -395,19 +404,35 @@ impl Trainer {
         }
     }
 
-    /// The smoothness priors on the material field (crate::smoothness)
-    /// and on the normals (crate::normal_smoothness), over the surface
-    /// points of the last pass, each paired with a point offset uniformly
-    /// within `loss.smoothness_radius` per axis; adds their gradients and
-    /// returns their unweighted values (0 for a prior that is off). The
-    /// offsets are drawn only when a prior is on, so a run with both off
-    /// draws the same random numbers as before they existed.
-    fn smoothness_priors(&mut self, rng: &mut Pcg64, fd_step: f64) -> (f64, f64) {
+    /// The priors over the surface points of the last pass: smoothness of
+    /// the material field (crate::smoothness) and of the normals
+    /// (crate::normal_smoothness), each point paired with a point offset
+    /// uniformly within `loss.smoothness_radius` per axis, and the
+    /// binary-metallic prior (crate::metallic_prior) at the points
+    /// themselves; adds their gradients and returns their unweighted values
+    /// (0 for a prior that is off). The offsets are drawn only when a
+    /// smoothness prior is on, so a run with both off draws the same random
+    /// numbers as before they existed.
+    fn surface_priors(&mut self, rng: &mut Pcg64, fd_step: f64) -> (f64, f64, f64) {
         let loss = &self.config.loss;
-        if loss.material_smoothness <= 0.0 && loss.normal_smoothness <= 0.0 {
-            return (0.0, 0.0);
+        let smooth = loss.material_smoothness > 0.0 || loss.normal_smoothness > 0.0;
+        if !smooth && loss.binary_metallic <= 0.0 {
+            return (0.0, 0.0, 0.0);
         }
         let (centres, normals) = self.pipeline.surface_points_with_normals(0.5);
+        let binary = if loss.binary_metallic > 0.0 {
+            self.binary_metallic.forward_backward(
+                &self.model.material,
+                &centres,
+                loss.binary_metallic as f32,
+                &mut self.grads.material,
+            )
+        } else {
+            0.0
+        };
+        if !smooth {
+            return (0.0, 0.0, binary);
+        }
         let r = loss.smoothness_radius as f32;
         let offsets: Vec<[f32; 3]> = centres
             .iter()
@@ -454,7 +479,7 @@ impl Trainer {
         } else {
             0.0
         };
-        (material, normal)
+        (material, normal, binary)
     }
 
     fn apply_adam(&mut self, f: f64) {
