@@ -9,22 +9,8 @@ use wildlight_material::{METALLIC, PARAM_COUNT};
 use wildlight_train::metallic_prior::BinaryMetallic;
 use wildlight_train::model::Model;
 
-fn tiny_material_model() -> Model<f64> {
-    let mut model = common::tiny_model(13);
-    // Tables away from their tiny initial values, so Θ varies in space.
-    for (i, v) in model.material.grid.params.iter_mut().enumerate() {
-        *v = 0.5 * (i as f64 * 0.37).cos();
-    }
-    model
-}
+use common::{CENTRES as POINTS, tiny_material_model};
 
-const POINTS: [[f64; 3]; 5] = [
-    [0.1, -0.2, 0.3],
-    [-0.35, 0.05, 0.12],
-    [0.42, 0.31, -0.27],
-    [-0.1, -0.44, -0.05],
-    [0.2, 0.25, 0.33],
-];
 const WEIGHT: f64 = 0.7;
 
 fn loss(model: &Model<f64>, grads: Option<&mut wildlight_fields::FieldGrads<f64>>) -> f64 {
@@ -79,10 +65,5 @@ fn binary_metallic_pushes_each_point_to_the_nearer_end() {
 
 #[test]
 fn binary_metallic_gradient_matches_finite_differences() {
-    let mut model = tiny_material_model();
-    let mut grads = model.material.new_grads();
-    loss(&model, Some(&mut grads));
-    let probed =
-        common::check_field_gradient(&mut model, |m| &mut m.material, &grads, |m| loss(m, None));
-    assert!(probed >= 10, "only {probed} parameters had a gradient");
+    common::check_material_prior_gradient(loss);
 }

@@ -7,21 +7,8 @@ mod common;
 use wildlight_train::model::Model;
 use wildlight_train::smoothness::MaterialSmoothness;
 
-fn tiny_material_model() -> Model<f64> {
-    let mut model = common::tiny_model(11);
-    // Tables away from their tiny initial values, so Θ varies in space.
-    for (i, v) in model.material.grid.params.iter_mut().enumerate() {
-        *v = 0.4 * (i as f64 * 0.77).sin();
-    }
-    model
-}
+use common::{CENTRES, tiny_material_model};
 
-const CENTRES: [[f64; 3]; 4] = [
-    [0.1, -0.2, 0.3],
-    [-0.35, 0.05, 0.12],
-    [0.42, 0.31, -0.27],
-    [-0.1, -0.44, -0.05],
-];
 const OFFSETS: [[f64; 3]; 4] = [
     [0.04, -0.03, 0.02],
     [-0.05, 0.02, 0.06],
@@ -86,10 +73,5 @@ fn flash_scaling_parameters_are_compared_relatively() {
 
 #[test]
 fn smoothness_gradient_matches_finite_differences() {
-    let mut model = tiny_material_model();
-    let mut grads = model.material.new_grads();
-    loss(&model, Some(&mut grads));
-    let probed =
-        common::check_field_gradient(&mut model, |m| &mut m.material, &grads, |m| loss(m, None));
-    assert!(probed >= 10, "only {probed} parameters had a gradient");
+    common::check_material_prior_gradient(loss);
 }

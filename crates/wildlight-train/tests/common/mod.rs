@@ -26,6 +26,38 @@ pub fn tiny_model(seed: u64) -> Model<f64> {
     Model::<f64>::new(&config, seed).unwrap()
 }
 
+/// [`tiny_model`] with its material table away from its tiny initial
+/// values, so Θ varies in space.
+#[allow(dead_code)] // not every test crate checks the material field
+pub fn tiny_material_model() -> Model<f64> {
+    let mut model = tiny_model(11);
+    for (i, v) in model.material.grid.params.iter_mut().enumerate() {
+        *v = 0.4 * (i as f64 * 0.77).sin();
+    }
+    model
+}
+
+/// Checks the material-field gradient of a prior `loss` (which fills the
+/// gradient when given one) on [`tiny_material_model`] against central
+/// differences, and that at least 10 probed parameters had one.
+#[allow(dead_code)]
+pub fn check_material_prior_gradient(loss: fn(&Model<f64>, Option<&mut FieldGrads<f64>>) -> f64) {
+    let mut model = tiny_material_model();
+    let mut grads = model.material.new_grads();
+    loss(&model, Some(&mut grads));
+    let probed = check_field_gradient(&mut model, |m| &mut m.material, &grads, |m| loss(m, None));
+    assert!(probed >= 10, "only {probed} parameters had a gradient");
+}
+
+/// Surface-like points of the prior tests.
+#[allow(dead_code)]
+pub const CENTRES: [[f64; 3]; 4] = [
+    [0.1, -0.2, 0.3],
+    [-0.35, 0.05, 0.12],
+    [0.42, 0.31, -0.27],
+    [-0.1, -0.44, -0.05],
+];
+
 /// Entry `i` of the hash table (group 0) or the MLP (group 1) of the field
 /// that `field` picks from the model.
 fn entry(
