@@ -64,6 +64,21 @@ pub struct SecondDifference<T> {
     pub along_normal: T,
 }
 
+impl<T: Float> SecondDifference<T> {
+    /// Backward through Δ = P s, s = n₁ + n₂ − 2 n₀, P = I − n₀ n₀ᵀ, for
+    /// `u` = ∂L/∂Δ and the normal `n0` it was computed with: returns
+    /// (∂L/∂n₀, ∂L/∂n₁ = ∂L/∂n₂), with ∂L/∂n₁ = ∂L/∂n₂ = P u and
+    /// ∂L/∂n₀ = −2 P u − (n₀·s) u − (u·n₀) s.
+    #[inline]
+    pub fn backward(&self, n0: [T; 3], u: [T; 3]) -> ([T; 3], [T; 3]) {
+        let two = of::<T>(2.0);
+        let un = dot3(u, n0);
+        let pu = [0, 1, 2].map(|a| u[a] - un * n0[a]);
+        let d0 = [0, 1, 2].map(|a| -two * pu[a] - self.along_normal * u[a] - un * self.sum[a]);
+        (d0, pu)
+    }
+}
+
 /// [`SecondDifference`] of the normals `n0` (at x), `n1` and `n2`.
 #[inline]
 pub fn second_difference<T: Float>(n0: [T; 3], n1: [T; 3], n2: [T; 3]) -> SecondDifference<T> {
@@ -140,17 +155,9 @@ impl<T: Float + Default> NormalSmoothness<T> {
                 NormalDifference::Second => {
                     let (n2, len2) = unit3(g[2 * m + j]);
                     let sd = second_difference(n0, n1, n2);
-                    let (sv, sn) = (sd.sum, sd.along_normal);
                     let (rho, u) = pseudo_huber(sd.tangential);
                     sum += to_f64(rho);
-                    // Δ = P s, s = n₁ + n₂ − 2 n₀, P = I − n₀ n₀ᵀ:
-                    // ∂ρ/∂n₁ = ∂ρ/∂n₂ = P u and
-                    // ∂ρ/∂n₀ = −2 P u − (n₀·s) u − (u·n₀) s.
-                    let u = u.map(|v| scale * v);
-                    let un = dot3(u, n0);
-                    let pu = [0, 1, 2].map(|a| u[a] - un * n0[a]);
-                    let two = of::<T>(2.0);
-                    let d0 = [0, 1, 2].map(|a| -two * pu[a] - sn * u[a] - un * sv[a]);
+                    let (d0, pu) = sd.backward(n0, u.map(|v| scale * v));
                     self.d_gradient[m + j] = unit3_backward(pu, n1, len1);
                     self.d_gradient[2 * m + j] = unit3_backward(pu, n2, len2);
                     self.d_gradient[j] = unit3_backward(d0, n0, len0);

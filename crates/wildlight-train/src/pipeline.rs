@@ -304,14 +304,10 @@ impl<T: Float + Default> Pipeline<T> {
     }
 
     /// The expected hit point Σ w_k x_k / Σw of every ray of the last pass
-    /// whose Σw is at least `min_acc` (rays that meet the surface).
-    pub fn surface_points(&self, min_acc: f64) -> Vec<[T; 3]> {
-        self.surface_points_with_normals(min_acc).0
-    }
-
-    /// [`Pipeline::surface_points`] and, for each, the unit expected normal
-    /// Σ w_k n_k / |Σ w_k n_k| (zero where that sum vanishes).
-    pub fn surface_points_with_normals(&self, min_acc: f64) -> (Vec<[T; 3]>, Vec<[T; 3]>) {
+    /// whose Σw is at least `min_acc` (rays that meet the surface), and for
+    /// each the unit expected normal Σ w_k n_k / |Σ w_k n_k| (zero where
+    /// that sum vanishes).
+    pub fn surface_points(&self, min_acc: f64) -> (Vec<[T; 3]>, Vec<[T; 3]>) {
         let offsets = &self.samples.offsets;
         (0..offsets.len().saturating_sub(1))
             .filter_map(|r| {

@@ -419,7 +419,7 @@ impl Trainer {
         if !smooth && loss.binary_metallic <= 0.0 {
             return (0.0, 0.0, 0.0);
         }
-        let (centres, normals) = self.pipeline.surface_points_with_normals(0.5);
+        let (centres, normals) = self.pipeline.surface_points(0.5);
         let binary = if loss.binary_metallic > 0.0 {
             self.binary_metallic.forward_backward(
                 &self.model.material,

@@ -202,19 +202,16 @@ fn normal_smoothness_gradient_matches_finite_differences() {
     }
 }
 
-/// The backward of the second difference, ∂ρ(Δ)/∂n for each of the three
-/// normals as the prior applies it, against central differences in n.
+/// SecondDifference::backward, the prior's ∂ρ(Δ)/∂n for each of the three
+/// normals, against central differences in n.
 #[test]
 fn second_difference_backward_matches_finite_differences() {
     let n = [[0.3, 0.8, 0.5], [0.35, 0.75, 0.52], [0.28, 0.82, 0.45]];
     let rho = |n: [[f64; 3]; 3]| pseudo_huber(second_difference(n[0], n[1], n[2]).tangential).0;
     let sd = second_difference(n[0], n[1], n[2]);
     let (_, u) = pseudo_huber(sd.tangential);
-    let un: f64 = (0..3).map(|a| u[a] * n[0][a]).sum();
-    let pu = [0, 1, 2].map(|a| u[a] - un * n[0][a]);
-    // The formulas of NormalSmoothness::forward_backward.
-    let d0 = [0, 1, 2].map(|a| -2.0 * pu[a] - sd.along_normal * u[a] - un * sd.sum[a]);
-    let analytic = [d0, pu, pu];
+    let (d0, d12) = sd.backward(n[0], u);
+    let analytic = [d0, d12, d12];
     let h = 1e-6;
     for k in 0..3 {
         for a in 0..3 {
