@@ -346,7 +346,7 @@ impl Trainer {
             &mut self.grads,
         );
         let (smoothness, normal_smoothness, binary_metallic) =
-            self.surface_priors(&mut rng, settings.fd_step);
+            self.surface_priors(&mut rng, settings.fd_step, step);
         self.record_errors(&counts);
         let cfg = &self.config;
         let loss = cfg.loss.color * color
@@ -409,18 +409,20 @@ impl Trainer {
     /// (crate::normal_smoothness), each point paired with a point offset
     /// uniformly within `loss.smoothness_radius` per axis, and the
     /// binary-metallic prior (crate::metallic_prior) at the points
-    /// themselves; adds their gradients and returns their unweighted values
-    /// (0 for a prior that is off). The offsets are drawn only when a
+    /// themselves (from step `loss.binary_metallic_start` on); adds their
+    /// gradients and returns their unweighted values (0 for a prior that is
+    /// off, or not yet on). The offsets are drawn only when a
     /// smoothness prior is on, so a run with both off draws the same random
     /// numbers as before they existed.
-    fn surface_priors(&mut self, rng: &mut Pcg64, fd_step: f64) -> (f64, f64, f64) {
+    fn surface_priors(&mut self, rng: &mut Pcg64, fd_step: f64, step: u64) -> (f64, f64, f64) {
         let loss = &self.config.loss;
         let smooth = loss.material_smoothness > 0.0 || loss.normal_smoothness > 0.0;
-        if !smooth && loss.binary_metallic <= 0.0 {
+        let binary_on = loss.binary_metallic > 0.0 && step >= loss.binary_metallic_start;
+        if !smooth && !binary_on {
             return (0.0, 0.0, 0.0);
         }
         let (centres, normals) = self.pipeline.surface_points(0.5);
-        let binary = if loss.binary_metallic > 0.0 {
+        let binary = if binary_on {
             self.binary_metallic.forward_backward(
                 &self.model.material,
                 &centres,

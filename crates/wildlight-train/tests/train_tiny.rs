@@ -290,3 +290,20 @@ fn planned_total_steps_shape_the_decay_and_survive_a_checkpoint() {
     resumed.load_checkpoint(&ckpt).unwrap();
     assert_eq!(resumed.planned_total_steps(), 12);
 }
+
+/// The binary-metallic prior applies from `loss.binary_metallic_start` on:
+/// its value is 0 on the steps before, positive on the steps after (every
+/// metallic value lies strictly inside (0, 1)).
+#[test]
+fn the_binary_metallic_prior_starts_at_its_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let dataset = capture(dir.path(), 6, 24);
+    let mut config = small_config(8);
+    config.batch_rays = 96;
+    config.loss.binary_metallic = 0.1;
+    config.loss.binary_metallic_start = 3;
+    let mut trainer = Trainer::new(config, TrainingRays::new(&dataset)).unwrap();
+    let values: Vec<f64> = (0..6).map(|_| trainer.step().binary_metallic).collect();
+    assert!(values[..3].iter().all(|v| *v == 0.0), "{values:?}");
+    assert!(values[3..].iter().all(|v| *v > 0.0), "{values:?}");
+}
