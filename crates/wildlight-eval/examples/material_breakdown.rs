@@ -7,7 +7,12 @@
 //! error, and its share of the squared image error (values clipped at 1) in
 //! the flash and the no-flash views. A second table gives, per group, the
 //! other parameters of Θ (dielectric specular, clearcoat, clearcoat gloss,
-//! subsurface), truth and prediction, read from the `params` maps.
+//! subsurface), truth and prediction, read from the `params` maps. A third
+//! and a fourth give, per group, the means of the two terms of SPEC §2 and
+//! of the image clipped at 1, truth and prediction (the `ambient`, `flash`
+//! and `image` maps, averaged over the channels), in the flash and in the
+//! no-flash views: whether the ambient field takes up light that the flash
+//! term should explain, and how much light the clipping hides.
 //!
 //! ```sh
 //! wildlight render --run RUN --data CAPTURE --split val --out RENDER
@@ -47,6 +52,20 @@ struct Pixel {
     /// Squared image error summed over the channels.
     image_sq: f64,
     flash: bool,
+    /// Channel means of the ambient term, the flash term and the image
+    /// clipped at 1: truth, prediction.
+    terms: [[f64; 2]; 3],
+}
+
+/// The channel mean of every pixel of an RGB map.
+fn channel_means(path: &Path) -> Result<(u32, u32, Vec<f64>)> {
+    let im = read_exr_rgb(path).with_context(|| format!("reading {}", path.display()))?;
+    let means = im
+        .data
+        .chunks_exact(3)
+        .map(|c| c.iter().map(|v| *v as f64).sum::<f64>() / 3.0)
+        .collect();
+    Ok((im.width, im.height, means))
 }
 
 /// The nine parameter planes of a `params` map (channels p0..p8).
@@ -77,7 +96,16 @@ fn read_view_pixels(render: &Path, val: &Path, index: usize, flash: bool) -> Res
     let mask =
         read_mask_png(&mask_path).with_context(|| format!("reading {}", mask_path.display()))?;
     let size = (mask.width, mask.height);
+    let term = |dir: &Path, term: &str| channel_means(&dir.join(term).join(&name));
+    let terms = [
+        [term(&val.join("gt"), "ambient")?, term(render, "ambient")?],
+        [term(&val.join("gt"), "flash")?, term(render, "flash")?],
+    ];
     for (what, dims) in [
+        ("true ambient map", (terms[0][0].0, terms[0][0].1)),
+        ("predicted ambient map", (terms[0][1].0, terms[0][1].1)),
+        ("true flash map", (terms[1][0].0, terms[1][0].1)),
+        ("predicted flash map", (terms[1][1].0, terms[1][1].1)),
         ("true parameter map", (gt.0, gt.1)),
         ("predicted parameter map", (pred.0, pred.1)),
         ("photo", (gt_image.width, gt_image.height)),
@@ -103,6 +131,16 @@ fn read_view_pixels(render: &Path, val: &Path, index: usize, flash: bool) -> Res
                 })
                 .sum(),
             flash,
+            terms: {
+                let clip = |im: &RgbImage| {
+                    (0..3)
+                        .map(|c| im.data[3 * j + c].min(1.0) as f64)
+                        .sum::<f64>()
+                        / 3.0
+                };
+                let [a, f] = terms.each_ref().map(|t| t.each_ref().map(|m| m.2[j]));
+                [a, f, [clip(&gt_image), clip(&pred_image)]]
+            },
         })
         .collect())
 }
@@ -240,6 +278,39 @@ fn main() -> Result<()> {
             print!(" {:>6.3} {:.3}", mean(&|p| p.gt[i]), mean(&|p| p.pred[i]));
         }
         println!("{}", if k.is_none() { "  (other)" } else { "" });
+    }
+    // The terms of SPEC §2 and the clipped image, group by group, in the
+    // flash and then in the no-flash views.
+    for flash in [true, false] {
+        println!(
+            "\n{:>7} {:>20} {:>15} {:>15} {:>15}   ({} views, channel means)",
+            "pixels",
+            "base truth",
+            "ambient t / p",
+            "flash t / p",
+            "clipped t / p",
+            if flash { "flash" } else { "no-flash" }
+        );
+        for (k, members) in &groups {
+            let chosen: Vec<&&Pixel> = members.iter().filter(|p| p.flash == flash).collect();
+            let n = chosen.len().max(1) as f64;
+            let mean = |t: usize, i: usize| chosen.iter().map(|p| p.terms[t][i]).sum::<f64>() / n;
+            let gt = [0, 1, 2].map(|c| {
+                members.iter().map(|p| p.gt[BASE_COLOR + c]).sum::<f64>() / members.len() as f64
+            });
+            println!(
+                "{:>7} {:>20} {:>7.4} {:.4} {:>7.4} {:.4} {:>7.4} {:.4}{}",
+                chosen.len(),
+                format!("{:.2} {:.2} {:.2}", gt[0], gt[1], gt[2]),
+                mean(0, 0),
+                mean(0, 1),
+                mean(1, 0),
+                mean(1, 1),
+                mean(2, 0),
+                mean(2, 1),
+                if k.is_none() { "  (other)" } else { "" },
+            );
+        }
     }
     Ok(())
 }

@@ -4,7 +4,10 @@
 
 use serde::{Deserialize, Serialize};
 use wildlight_fields::{Activation, HashGridConfig, Interpolation, SdfFieldConfig};
-use wildlight_material::BrdfSettings;
+use wildlight_material::{
+    BASE_COLOR, BrdfSettings, CLEARCOAT, CLEARCOAT_GLOSS, DIELECTRIC, METALLIC, PARAM_COUNT,
+    ROUGHNESS, SUBSURFACE,
+};
 
 /// Everything that defines a training run.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -92,6 +95,9 @@ pub struct LossConfig {
     /// Largest offset of the smoothness pairs, per axis (normalized units;
     /// offsets are uniform in ±this).
     pub smoothness_radius: f64,
+    /// Per-parameter factors w_i of the material smoothness prior (all 1
+    /// by default): λ · w_i is parameter i's weight.
+    pub smoothness_factors: SmoothnessFactors,
     /// Weight λ of the normal smoothness prior (`crate::normal_smoothness`;
     /// the project's addition to SPEC §4): the mean pseudo-Huber size of a
     /// difference of the unit normals (`normal_difference`) around the same
@@ -126,6 +132,72 @@ pub struct LossConfig {
     pub binary_metallic_start: u64,
 }
 
+/// Per-parameter factors of the material smoothness prior
+/// (`crate::smoothness`), `[loss.smoothness_factors]` in a config file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SmoothnessFactors {
+    /// Factor of the three base colour channels.
+    pub base_color: f64,
+    /// Factor of the roughness.
+    pub roughness: f64,
+    /// Factor of the clearcoat gloss.
+    pub clearcoat_gloss: f64,
+    /// Factor of the subsurface weight.
+    pub subsurface: f64,
+    /// Factor of the metallic weight.
+    pub metallic: f64,
+    /// Factor of the dielectric specular weight.
+    pub dielectric: f64,
+    /// Factor of the clearcoat weight.
+    pub clearcoat: f64,
+}
+
+impl Default for SmoothnessFactors {
+    fn default() -> Self {
+        Self {
+            base_color: 1.0,
+            roughness: 1.0,
+            clearcoat_gloss: 1.0,
+            subsurface: 1.0,
+            metallic: 1.0,
+            dielectric: 1.0,
+            clearcoat: 1.0,
+        }
+    }
+}
+
+impl SmoothnessFactors {
+    /// The factors in Θ's order (`wildlight_material::PARAM_NAMES`).
+    pub fn per_parameter(&self) -> [f64; PARAM_COUNT] {
+        let mut w = [0.0; PARAM_COUNT];
+        w[BASE_COLOR..BASE_COLOR + 3].fill(self.base_color);
+        w[ROUGHNESS] = self.roughness;
+        w[CLEARCOAT_GLOSS] = self.clearcoat_gloss;
+        w[SUBSURFACE] = self.subsurface;
+        w[METALLIC] = self.metallic;
+        w[DIELECTRIC] = self.dielectric;
+        w[CLEARCOAT] = self.clearcoat;
+        w
+    }
+
+    /// (name, value) of every factor, for validation.
+    fn named(&self) -> [(&'static str, f64); 7] {
+        [
+            ("loss.smoothness_factors.base_color", self.base_color),
+            ("loss.smoothness_factors.roughness", self.roughness),
+            (
+                "loss.smoothness_factors.clearcoat_gloss",
+                self.clearcoat_gloss,
+            ),
+            ("loss.smoothness_factors.subsurface", self.subsurface),
+            ("loss.smoothness_factors.metallic", self.metallic),
+            ("loss.smoothness_factors.dielectric", self.dielectric),
+            ("loss.smoothness_factors.clearcoat", self.clearcoat),
+        ]
+    }
+}
+
 /// The difference of the unit normals that the normal smoothness prior
 /// (`crate::normal_smoothness`) penalises.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -149,6 +221,7 @@ impl Default for LossConfig {
             mask: 1.0,
             material_smoothness: 0.05,
             smoothness_radius: 0.01,
+            smoothness_factors: SmoothnessFactors::default(),
             normal_smoothness: 2.0,
             normal_difference: NormalDifference::Second,
             binary_metallic: 0.0,
@@ -548,7 +621,10 @@ impl TrainConfig {
             ("loss.smoothness_radius", self.loss.smoothness_radius),
             ("loss.normal_smoothness", self.loss.normal_smoothness),
             ("loss.binary_metallic", self.loss.binary_metallic),
-        ] {
+        ]
+        .into_iter()
+        .chain(self.loss.smoothness_factors.named())
+        {
             if !(v.is_finite() && v >= 0.0) {
                 return bad(name, "must be finite and ≥ 0");
             }
@@ -689,6 +765,38 @@ mod tests {
             ..TrainConfig::default()
         };
         assert!(c.validate().unwrap_err().contains("error_fraction"));
+    }
+
+    /// The smoothness factors read from their own table, fill Θ's order,
+    /// and a negative one is refused by name.
+    #[test]
+    fn smoothness_factors_in_theta_order() {
+        let c = TrainConfig::from_toml(
+            "[loss.smoothness_factors]\nbase_color = 0.5\nroughness = 3\nclearcoat = 0\n",
+        )
+        .unwrap();
+        let w = c.loss.smoothness_factors.per_parameter();
+        for (i, name) in wildlight_material::PARAM_NAMES.iter().enumerate() {
+            let expected = match *name {
+                "base_color_r" | "base_color_g" | "base_color_b" => 0.5,
+                "roughness" => 3.0,
+                "clearcoat" => 0.0,
+                _ => 1.0,
+            };
+            assert_eq!(w[i], expected, "{name}");
+        }
+        assert!(c.validate().is_ok());
+        assert_eq!(
+            TrainConfig::default()
+                .loss
+                .smoothness_factors
+                .per_parameter(),
+            [1.0; PARAM_COUNT]
+        );
+        let mut bad = TrainConfig::default();
+        bad.loss.smoothness_factors.metallic = -1.0;
+        let err = bad.validate().unwrap_err();
+        assert!(err.contains("loss.smoothness_factors.metallic"), "{err}");
     }
 
     #[test]

@@ -4,7 +4,7 @@
 //! For pairs of points (x_j, x_j + ε_j), with x_j on the surface (the
 //! expected hit point of a foreground ray) and ε_j a small random offset,
 //!
-//! L_smooth = λ · (1/m) Σ_j Σ_i δ_i(Θ_i(x_j), Θ_i(x_j + ε_j)),
+//! L_smooth = λ · (1/m) Σ_j Σ_i w_i δ_i(Θ_i(x_j), Θ_i(x_j + ε_j)),
 //!
 //! an L1-type penalty, so that sharp boundaries between materials cost no
 //! more than their length while noise inside one material is pushed out.
@@ -13,7 +13,9 @@
 //! renders the same photos) the difference is relative, δ = |a − b| /
 //! (a + b + 0.01), so the prior cannot lower itself by darkening the
 //! object and raising γ; for the others (roughness, metallic, clearcoat
-//! gloss, subsurface) it is absolute, δ = |a − b|. Only the material field
+//! gloss, subsurface) it is absolute, δ = |a − b|. The factors w_i
+//! (`loss.smoothness_factors`, 1 by default) weigh the parameters against
+//! each other. Only the material field
 //! receives the gradient (the points are held fixed). The prior is the
 //! project's addition: SPEC §4 has no such term. Its weight
 //! `loss.material_smoothness` defaults to 0.05; 0 turns it off.
@@ -77,13 +79,15 @@ pub struct MaterialSmoothness<T> {
 impl<T: Float + Default> MaterialSmoothness<T> {
     /// Evaluates λ · L_smooth for the pairs (centres[j], centres[j] +
     /// offsets[j]) and ADDS its gradient with respect to the field's
-    /// parameters into `grads`. Returns the unweighted mean Σ_i δ_i.
+    /// parameters into `grads`, with the per-parameter factors w_i of
+    /// `factors`. Returns the mean Σ_i w_i δ_i (without λ).
     pub fn forward_backward(
         &mut self,
         field: &NeuralField<T>,
         centres: &[[T; 3]],
         offsets: &[[T; 3]],
         weight: T,
+        factors: &[T; PARAM_COUNT],
         grads: &mut FieldGrads<T>,
     ) -> f64 {
         let m = pair_points(centres, offsets, &mut self.points);
@@ -101,10 +105,12 @@ impl<T: Float + Default> MaterialSmoothness<T> {
         self.d_out.resize(2 * m * k, T::ZERO);
         let (d_near, d_far) = self.d_out.split_at_mut(m * k);
         for (j, (((a, b), da), db)) in near.iter().zip(far).zip(d_near).zip(d_far).enumerate() {
-            let (delta, d_a, d_b) = pair_difference(j % PARAM_COUNT, *a, *b);
-            sum += to_f64(delta);
-            *da = scale * d_a;
-            *db = scale * d_b;
+            let i = j % PARAM_COUNT;
+            let (delta, d_a, d_b) = pair_difference(i, *a, *b);
+            let w = factors[i];
+            sum += to_f64(w * delta);
+            *da = scale * w * d_a;
+            *db = scale * w * d_b;
         }
         field.backward(&mut self.ctx, &self.d_out, grads, None, None);
         sum / m as f64

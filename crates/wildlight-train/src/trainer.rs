@@ -463,6 +463,7 @@ impl Trainer {
                 &centres,
                 &offsets,
                 loss.material_smoothness as f32,
+                &loss.smoothness_factors.per_parameter().map(|w| w as f32),
                 &mut self.grads.material,
             )
         } else {

@@ -22,36 +22,63 @@ fn loss(model: &Model<f64>, grads: Option<&mut wildlight_fields::FieldGrads<f64>
     let mut term = MaterialSmoothness::<f64>::default();
     let mut scratch = model.material.new_grads();
     let g = grads.unwrap_or(&mut scratch);
-    WEIGHT * term.forward_backward(&model.material, &CENTRES, &OFFSETS, WEIGHT, g)
+    WEIGHT * term.forward_backward(&model.material, &CENTRES, &OFFSETS, WEIGHT, &[1.0; 9], g)
 }
+
+/// The same with the per-parameter factors of `FACTORS`.
+fn factored_loss(model: &Model<f64>, grads: Option<&mut wildlight_fields::FieldGrads<f64>>) -> f64 {
+    let mut term = MaterialSmoothness::<f64>::default();
+    let mut scratch = model.material.new_grads();
+    let g = grads.unwrap_or(&mut scratch);
+    WEIGHT * term.forward_backward(&model.material, &CENTRES, &OFFSETS, WEIGHT, &FACTORS, g)
+}
+
+/// Unequal factors, one of them 0.
+const FACTORS: [f64; 9] = [2.0, 2.0, 2.0, 3.0, 0.5, 0.0, 1.5, 1.0, 0.25];
 
 #[test]
 fn smoothness_value_is_the_mean_l1_difference_of_theta() {
     let model = tiny_material_model();
     let mut ctx = wildlight_fields::FieldContext::default();
-    let mut by_hand = 0.0;
+    let (mut by_hand, mut factored_by_hand) = (0.0, 0.0);
     for (c, e) in CENTRES.iter().zip(&OFFSETS) {
         let far = [c[0] + e[0], c[1] + e[1], c[2] + e[2]];
         model.material.forward(&[*c, far], &[], &mut ctx);
         let (a, b) = ctx.output().split_at(9);
         for (i, (x, y)) in a.iter().zip(b).enumerate() {
             // relative for base colour (0–2), dielectric (7) and clearcoat (8)
-            by_hand += if i <= 2 || i == 7 || i == 8 {
+            let delta = if i <= 2 || i == 7 || i == 8 {
                 (x - y).abs() / (x + y + 0.01)
             } else {
                 (x - y).abs()
             };
+            by_hand += delta;
+            factored_by_hand += FACTORS[i] * delta;
         }
     }
     by_hand /= CENTRES.len() as f64;
+    factored_by_hand /= CENTRES.len() as f64;
     let value = loss(&model, None) / WEIGHT;
     assert!(value > 1e-3, "Θ must differ across the pairs: {value}");
     assert!((value - by_hand).abs() < 1e-12, "{value} vs {by_hand}");
+    let factored = factored_loss(&model, None) / WEIGHT;
+    assert!((factored - value).abs() > 1e-4, "the factors must matter");
+    assert!(
+        (factored - factored_by_hand).abs() < 1e-12,
+        "{factored} vs {factored_by_hand}"
+    );
 
     // No offset, no penalty and no gradient.
     let mut term = MaterialSmoothness::<f64>::default();
     let mut g = model.material.new_grads();
-    let zero = term.forward_backward(&model.material, &CENTRES, &[[0.0; 3]; 4], 1.0, &mut g);
+    let zero = term.forward_backward(
+        &model.material,
+        &CENTRES,
+        &[[0.0; 3]; 4],
+        1.0,
+        &[1.0; 9],
+        &mut g,
+    );
     assert_eq!(zero, 0.0);
     assert!(g.grid.iter().chain(&g.mlp).all(|v| *v == 0.0));
 }
@@ -74,4 +101,5 @@ fn flash_scaling_parameters_are_compared_relatively() {
 #[test]
 fn smoothness_gradient_matches_finite_differences() {
     common::check_material_prior_gradient(loss);
+    common::check_material_prior_gradient(factored_loss);
 }
