@@ -3,6 +3,8 @@
 //! into each run folder so that a run can be resumed and re-rendered.
 
 use serde::{Deserialize, Serialize};
+
+pub use crate::smoothness::RelativeDifference;
 use wildlight_fields::{Activation, HashGridConfig, Interpolation, SdfFieldConfig};
 use wildlight_material::{
     BASE_COLOR, BrdfSettings, CLEARCOAT, CLEARCOAT_GLOSS, DIELECTRIC, METALLIC, PARAM_COUNT,
@@ -98,6 +100,11 @@ pub struct LossConfig {
     /// Per-parameter factors w_i of the material smoothness prior (all 1
     /// by default): λ · w_i is parameter i's weight.
     pub smoothness_factors: SmoothnessFactors,
+    /// How the material smoothness prior makes the differences of base
+    /// colour, dielectric specular and clearcoat relative: `"pair"` (the
+    /// default; each pair by its own sum) or `"batch"` (by the mean over all
+    /// pairs, so both sides of a boundary are pushed alike).
+    pub smoothness_relative: RelativeDifference,
     /// Weight λ of the normal smoothness prior (`crate::normal_smoothness`;
     /// the project's addition to SPEC §4): the mean pseudo-Huber size of a
     /// difference of the unit normals (`normal_difference`) around the same
@@ -222,6 +229,7 @@ impl Default for LossConfig {
             material_smoothness: 0.05,
             smoothness_radius: 0.01,
             smoothness_factors: SmoothnessFactors::default(),
+            smoothness_relative: RelativeDifference::Pair,
             normal_smoothness: 2.0,
             normal_difference: NormalDifference::Second,
             binary_metallic: 0.0,

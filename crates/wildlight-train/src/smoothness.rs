@@ -15,12 +15,15 @@
 //! object and raising γ; for the others (roughness, metallic, clearcoat
 //! gloss, subsurface) it is absolute, δ = |a − b|. The factors w_i
 //! (`loss.smoothness_factors`, 1 by default) weigh the parameters against
-//! each other. Only the material field
+//! each other. With `loss.smoothness_relative = "batch"` the relative
+//! difference divides by the mean of a + b over the whole batch instead of
+//! the pair's own ([`RelativeDifference`]). Only the material field
 //! receives the gradient (the points are held fixed). The prior is the
 //! project's addition: SPEC §4 has no such term. Its weight
 //! `loss.material_smoothness` defaults to 0.05; 0 turns it off.
 
 use crate::float::{Float, of, sign, to_f64};
+use serde::{Deserialize, Serialize};
 use wildlight_fields::{FieldContext, FieldGrads, NeuralField};
 use wildlight_material::{BASE_COLOR, CLEARCOAT, DIELECTRIC, PARAM_COUNT};
 
@@ -68,6 +71,42 @@ pub(crate) fn pair_points<T: Float>(
     m
 }
 
+/// How the flash-scaling parameters' differences are made relative.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RelativeDifference {
+    /// δ = |a − b| / (a + b + 0.01), pair by pair: the darker side of a
+    /// boundary gets the larger push, so bright materials bleed into dark
+    /// ones.
+    #[default]
+    Pair,
+    /// δ = |a − b| / (M + 0.01) with M the mean of a + b over all pairs
+    /// (differentiated too): both sides of a boundary get the same push.
+    Batch,
+}
+
+/// The weights of the prior.
+#[derive(Clone, Copy, Debug)]
+pub struct SmoothnessSettings<T> {
+    /// λ.
+    pub weight: T,
+    /// The per-parameter factors w_i, in Θ's order.
+    pub factors: [T; PARAM_COUNT],
+    /// How δ is relative for base colour, dielectric and clearcoat.
+    pub relative: RelativeDifference,
+}
+
+impl<T: Float> SmoothnessSettings<T> {
+    /// Weight λ, every factor 1, pairwise relative differences.
+    pub fn uniform(weight: T) -> Self {
+        Self {
+            weight,
+            factors: [T::ONE; PARAM_COUNT],
+            relative: RelativeDifference::Pair,
+        }
+    }
+}
+
 /// Buffers of the smoothness term between calls.
 #[derive(Default)]
 pub struct MaterialSmoothness<T> {
@@ -78,16 +117,15 @@ pub struct MaterialSmoothness<T> {
 
 impl<T: Float + Default> MaterialSmoothness<T> {
     /// Evaluates λ · L_smooth for the pairs (centres[j], centres[j] +
-    /// offsets[j]) and ADDS its gradient with respect to the field's
-    /// parameters into `grads`, with the per-parameter factors w_i of
-    /// `factors`. Returns the mean Σ_i w_i δ_i (without λ).
+    /// offsets[j]) with the weight, factors and kind of relative difference
+    /// of `settings`, and ADDS its gradient with respect to the field's
+    /// parameters into `grads`. Returns the mean Σ_i w_i δ_i (without λ).
     pub fn forward_backward(
         &mut self,
         field: &NeuralField<T>,
         centres: &[[T; 3]],
         offsets: &[[T; 3]],
-        weight: T,
-        factors: &[T; PARAM_COUNT],
+        settings: &SmoothnessSettings<T>,
         grads: &mut FieldGrads<T>,
     ) -> f64 {
         let m = pair_points(centres, offsets, &mut self.points);
@@ -99,19 +137,65 @@ impl<T: Float + Default> MaterialSmoothness<T> {
         debug_assert_eq!(k, PARAM_COUNT, "the material field gives Θ");
         let out = self.ctx.output();
         let (near, far) = out.split_at(m * k);
-        let scale = weight / of(m as f64);
-        let mut sum = 0.0f64;
+        let scale = settings.weight / of(m as f64);
+        let factors = &settings.factors;
         self.d_out.clear();
         self.d_out.resize(2 * m * k, T::ZERO);
         let (d_near, d_far) = self.d_out.split_at_mut(m * k);
-        for (j, (((a, b), da), db)) in near.iter().zip(far).zip(d_near).zip(d_far).enumerate() {
-            let i = j % PARAM_COUNT;
-            let (delta, d_a, d_b) = pair_difference(i, *a, *b);
-            let w = factors[i];
-            sum += to_f64(w * delta);
-            *da = scale * w * d_a;
-            *db = scale * w * d_b;
-        }
+        let sum = match settings.relative {
+            RelativeDifference::Pair => {
+                let mut sum = 0.0f64;
+                for (j, (((a, b), da), db)) in
+                    near.iter().zip(far).zip(d_near).zip(d_far).enumerate()
+                {
+                    let i = j % PARAM_COUNT;
+                    let (delta, d_a, d_b) = pair_difference(i, *a, *b);
+                    let w = factors[i];
+                    sum += to_f64(w * delta);
+                    *da = scale * w * d_a;
+                    *db = scale * w * d_b;
+                }
+                sum
+            }
+            RelativeDifference::Batch => {
+                // Per parameter: D_i = Σ_j |a − b| and M_i = (1/m) Σ_j (a + b);
+                // L_i = D_i / (M_i + floor) for the flash-scaling ones (D_i
+                // otherwise), so ∂L_i/∂a_j = sign_j / s_i − D_i / (m s_i²).
+                let mut diff = [T::ZERO; PARAM_COUNT];
+                let mut mean = [T::ZERO; PARAM_COUNT];
+                for (j, (a, b)) in near.iter().zip(far).enumerate() {
+                    diff[j % PARAM_COUNT] += sign(*a - *b) * (*a - *b);
+                    mean[j % PARAM_COUNT] += *a + *b;
+                }
+                let mf = of::<T>(m as f64);
+                let denom: [T; PARAM_COUNT] = std::array::from_fn(|i| {
+                    if scales_the_flash(i) {
+                        mean[i] / mf + of::<T>(RELATIVE_FLOOR)
+                    } else {
+                        T::ONE
+                    }
+                });
+                let shared: [T; PARAM_COUNT] = std::array::from_fn(|i| {
+                    if scales_the_flash(i) {
+                        diff[i] / (mf * denom[i] * denom[i])
+                    } else {
+                        T::ZERO
+                    }
+                });
+                for (j, (((a, b), da), db)) in
+                    near.iter().zip(far).zip(d_near).zip(d_far).enumerate()
+                {
+                    let i = j % PARAM_COUNT;
+                    let sign = sign(*a - *b);
+                    let w = factors[i];
+                    *da = scale * w * (sign / denom[i] - shared[i]);
+                    *db = scale * w * (-sign / denom[i] - shared[i]);
+                }
+                (0..PARAM_COUNT)
+                    .map(|i| to_f64(factors[i] * diff[i] / denom[i]))
+                    .sum::<f64>()
+            }
+        };
         field.backward(&mut self.ctx, &self.d_out, grads, None, None);
         sum / m as f64
     }

@@ -12,7 +12,7 @@ use crate::model::{Model, ModelGrads};
 use crate::normal_smoothness::NormalSmoothness;
 use crate::pipeline::{PassSettings, Pipeline, RayInputs, eval_sdf};
 use crate::rays::{RayBatch, RayShares, TrainingRays};
-use crate::smoothness::MaterialSmoothness;
+use crate::smoothness::{MaterialSmoothness, SmoothnessSettings};
 use anyhow::Context;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -462,8 +462,11 @@ impl Trainer {
                 &self.model.material,
                 &centres,
                 &offsets,
-                loss.material_smoothness as f32,
-                &loss.smoothness_factors.per_parameter().map(|w| w as f32),
+                &SmoothnessSettings {
+                    weight: loss.material_smoothness as f32,
+                    factors: loss.smoothness_factors.per_parameter().map(|w| w as f32),
+                    relative: loss.smoothness_relative,
+                },
                 &mut self.grads.material,
             )
         } else {

@@ -5,7 +5,7 @@
 mod common;
 
 use wildlight_train::model::Model;
-use wildlight_train::smoothness::MaterialSmoothness;
+use wildlight_train::smoothness::{MaterialSmoothness, RelativeDifference, SmoothnessSettings};
 
 use common::{CENTRES, tiny_material_model};
 
@@ -22,7 +22,8 @@ fn loss(model: &Model<f64>, grads: Option<&mut wildlight_fields::FieldGrads<f64>
     let mut term = MaterialSmoothness::<f64>::default();
     let mut scratch = model.material.new_grads();
     let g = grads.unwrap_or(&mut scratch);
-    WEIGHT * term.forward_backward(&model.material, &CENTRES, &OFFSETS, WEIGHT, &[1.0; 9], g)
+    let settings = SmoothnessSettings::uniform(WEIGHT);
+    WEIGHT * term.forward_backward(&model.material, &CENTRES, &OFFSETS, &settings, g)
 }
 
 /// The same with the per-parameter factors of `FACTORS`.
@@ -30,7 +31,24 @@ fn factored_loss(model: &Model<f64>, grads: Option<&mut wildlight_fields::FieldG
     let mut term = MaterialSmoothness::<f64>::default();
     let mut scratch = model.material.new_grads();
     let g = grads.unwrap_or(&mut scratch);
-    WEIGHT * term.forward_backward(&model.material, &CENTRES, &OFFSETS, WEIGHT, &FACTORS, g)
+    let settings = SmoothnessSettings {
+        factors: FACTORS,
+        ..SmoothnessSettings::uniform(WEIGHT)
+    };
+    WEIGHT * term.forward_backward(&model.material, &CENTRES, &OFFSETS, &settings, g)
+}
+
+/// The same with batch-relative differences and the factors of `FACTORS`.
+fn batch_loss(model: &Model<f64>, grads: Option<&mut wildlight_fields::FieldGrads<f64>>) -> f64 {
+    let mut term = MaterialSmoothness::<f64>::default();
+    let mut scratch = model.material.new_grads();
+    let g = grads.unwrap_or(&mut scratch);
+    let settings = SmoothnessSettings {
+        factors: FACTORS,
+        relative: RelativeDifference::Batch,
+        ..SmoothnessSettings::uniform(WEIGHT)
+    };
+    WEIGHT * term.forward_backward(&model.material, &CENTRES, &OFFSETS, &settings, g)
 }
 
 /// Unequal factors, one of them 0.
@@ -41,6 +59,7 @@ fn smoothness_value_is_the_mean_l1_difference_of_theta() {
     let model = tiny_material_model();
     let mut ctx = wildlight_fields::FieldContext::default();
     let (mut by_hand, mut factored_by_hand) = (0.0, 0.0);
+    let (mut diff, mut sums) = ([0.0; 9], [0.0; 9]);
     for (c, e) in CENTRES.iter().zip(&OFFSETS) {
         let far = [c[0] + e[0], c[1] + e[1], c[2] + e[2]];
         model.material.forward(&[*c, far], &[], &mut ctx);
@@ -54,6 +73,8 @@ fn smoothness_value_is_the_mean_l1_difference_of_theta() {
             };
             by_hand += delta;
             factored_by_hand += FACTORS[i] * delta;
+            diff[i] += (x - y).abs();
+            sums[i] += x + y;
         }
     }
     by_hand /= CENTRES.len() as f64;
@@ -61,6 +82,21 @@ fn smoothness_value_is_the_mean_l1_difference_of_theta() {
     let value = loss(&model, None) / WEIGHT;
     assert!(value > 1e-3, "Θ must differ across the pairs: {value}");
     assert!((value - by_hand).abs() < 1e-12, "{value} vs {by_hand}");
+    // Batch-relative: Σ_i w_i D_i / (M_i + 0.01) over the pairs' count.
+    let n = CENTRES.len() as f64;
+    let batch_by_hand = (0..9)
+        .map(|i| {
+            let relative = i <= 2 || i == 7 || i == 8;
+            let s = if relative { sums[i] / n + 0.01 } else { 1.0 };
+            FACTORS[i] * diff[i] / s
+        })
+        .sum::<f64>()
+        / n;
+    let batch = batch_loss(&model, None) / WEIGHT;
+    assert!(
+        (batch - batch_by_hand).abs() < 1e-12,
+        "{batch} vs {batch_by_hand}"
+    );
     let factored = factored_loss(&model, None) / WEIGHT;
     assert!((factored - value).abs() > 1e-4, "the factors must matter");
     assert!(
@@ -75,8 +111,7 @@ fn smoothness_value_is_the_mean_l1_difference_of_theta() {
         &model.material,
         &CENTRES,
         &[[0.0; 3]; 4],
-        1.0,
-        &[1.0; 9],
+        &SmoothnessSettings::uniform(1.0),
         &mut g,
     );
     assert_eq!(zero, 0.0);
@@ -102,4 +137,5 @@ fn flash_scaling_parameters_are_compared_relatively() {
 fn smoothness_gradient_matches_finite_differences() {
     common::check_material_prior_gradient(loss);
     common::check_material_prior_gradient(factored_loss);
+    common::check_material_prior_gradient(batch_loss);
 }
