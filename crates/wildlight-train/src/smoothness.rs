@@ -20,7 +20,7 @@
 //! the pair's own ([`RelativeDifference`]). Only the material field
 //! receives the gradient (the points are held fixed). The prior is the
 //! project's addition: SPEC §4 has no such term. Its weight
-//! `loss.material_smoothness` defaults to 0.05; 0 turns it off.
+//! `loss.material_smoothness` defaults to 0.1; 0 turns it off.
 
 use crate::float::{Float, of, sign, to_f64};
 use serde::{Deserialize, Serialize};

@@ -136,7 +136,7 @@ fn resumed_training_of_the_plain_neural_ambient_without_the_material_prior_conti
 }
 
 /// The default weight of the material smoothness prior.
-const DEFAULT_SMOOTHNESS: f64 = 0.05;
+const DEFAULT_SMOOTHNESS: f64 = 0.1;
 
 /// The diffuse-specular ambient term's second field and its optimiser
 /// state survive a checkpoint too.
