@@ -17,38 +17,40 @@ const OFFSETS: [[f64; 3]; 4] = [
 ];
 const WEIGHT: f64 = 0.7;
 
-/// λ · L_smooth and (when asked) its gradient.
-fn loss(model: &Model<f64>, grads: Option<&mut wildlight_fields::FieldGrads<f64>>) -> f64 {
+/// λ · L_smooth with `settings` and (when asked) its gradient.
+fn loss_with(
+    settings: SmoothnessSettings<f64>,
+    model: &Model<f64>,
+    grads: Option<&mut wildlight_fields::FieldGrads<f64>>,
+) -> f64 {
     let mut term = MaterialSmoothness::<f64>::default();
     let mut scratch = model.material.new_grads();
     let g = grads.unwrap_or(&mut scratch);
-    let settings = SmoothnessSettings::uniform(WEIGHT);
-    WEIGHT * term.forward_backward(&model.material, &CENTRES, &OFFSETS, &settings, g)
+    settings.weight * term.forward_backward(&model.material, &CENTRES, &OFFSETS, &settings, g)
+}
+
+/// λ · L_smooth and (when asked) its gradient.
+fn loss(model: &Model<f64>, grads: Option<&mut wildlight_fields::FieldGrads<f64>>) -> f64 {
+    loss_with(SmoothnessSettings::uniform(WEIGHT), model, grads)
 }
 
 /// The same with the per-parameter factors of `FACTORS`.
 fn factored_loss(model: &Model<f64>, grads: Option<&mut wildlight_fields::FieldGrads<f64>>) -> f64 {
-    let mut term = MaterialSmoothness::<f64>::default();
-    let mut scratch = model.material.new_grads();
-    let g = grads.unwrap_or(&mut scratch);
     let settings = SmoothnessSettings {
         factors: FACTORS,
         ..SmoothnessSettings::uniform(WEIGHT)
     };
-    WEIGHT * term.forward_backward(&model.material, &CENTRES, &OFFSETS, &settings, g)
+    loss_with(settings, model, grads)
 }
 
 /// The same with batch-relative differences and the factors of `FACTORS`.
 fn batch_loss(model: &Model<f64>, grads: Option<&mut wildlight_fields::FieldGrads<f64>>) -> f64 {
-    let mut term = MaterialSmoothness::<f64>::default();
-    let mut scratch = model.material.new_grads();
-    let g = grads.unwrap_or(&mut scratch);
     let settings = SmoothnessSettings {
         factors: FACTORS,
         relative: RelativeDifference::Batch,
         ..SmoothnessSettings::uniform(WEIGHT)
     };
-    WEIGHT * term.forward_backward(&model.material, &CENTRES, &OFFSETS, &settings, g)
+    loss_with(settings, model, grads)
 }
 
 /// Unequal factors, one of them 0.
