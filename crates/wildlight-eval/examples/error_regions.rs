@@ -12,13 +12,14 @@
 //!   knob, spout, handle, lid groove and foot by more);
 //! - **smooth**: the rest.
 //!
-//! With a third argument, writes a PNG of the first held-out view: each mask
-//! pixel's RMS error (×4) in red (silhouette), green (turning) or blue
-//! (smooth).
+//! With a third argument, writes a PNG of one held-out view (the first, or
+//! the view index given as a fourth argument): the photo, the rendering
+//! (both clipped at 1) and each mask pixel's RMS error (×4) in red
+//! (silhouette), green (turning) or blue (smooth), side by side.
 //!
 //! ```sh
 //! wildlight render --run RUN --data CAPTURE --split val --out RENDER
-//! cargo run --release -p wildlight-eval --example error_regions -- RENDER CAPTURE [OUT.png]
+//! cargo run --release -p wildlight-eval --example error_regions -- RENDER CAPTURE [OUT.png [VIEW]]
 //! ```
 
 use anyhow::{Context, Result, bail};
@@ -72,10 +73,17 @@ fn psnr(sq: f64, values: usize) -> f64 {
 
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().collect();
-    let (render, capture, png) = match args.as_slice() {
-        [_, r, c] => (r, c, None),
-        [_, r, c, p] => (r, c, Some(Path::new(p))),
-        _ => bail!("usage: error_regions RENDER_DIR CAPTURE_DIR [OUT.png]"),
+    let usage = "usage: error_regions RENDER_DIR CAPTURE_DIR [OUT.png [VIEW]]";
+    let (render, capture, png, picture_view) = match args.as_slice() {
+        [_, r, c] => (r, c, None, None),
+        [_, r, c, p] => (r, c, Some(Path::new(p)), None),
+        [_, r, c, p, v] => (
+            r,
+            c,
+            Some(Path::new(p)),
+            Some(v.parse::<usize>().context(usage)?),
+        ),
+        _ => bail!(usage),
     };
     let (render, val) = (Path::new(render), Path::new(capture).join("val"));
     let mut tally = Tally::default();
@@ -100,10 +108,14 @@ fn main() -> Result<()> {
                 bail!("view {i}: the {what} is not the size of the mask");
             }
         }
-        let mut picture = RgbImage::new(mask.width, mask.height);
+        let w = mask.width;
+        let mut picture = RgbImage::new(3 * w, mask.height);
         for y in 0..mask.height as i64 {
             for x in 0..mask.width as i64 {
                 let j = (y * mask.width as i64 + x) as usize;
+                let clipped = |im: &RgbImage| [0, 1, 2].map(|c| im.data[3 * j + c].min(1.0));
+                picture.set(x as u32, y as u32, clipped(&photo));
+                picture.set(w + x as u32, y as u32, clipped(&rendering));
                 if !mask.data[j] {
                     continue;
                 }
@@ -118,10 +130,11 @@ fn main() -> Result<()> {
                 tally.pixels[flash][r] += 1;
                 let mut colour = [0.0f32; 3];
                 colour[r] = (4.0 * (sq / 3.0).sqrt()) as f32;
-                picture.set(x as u32, y as u32, colour);
+                picture.set(2 * w + x as u32, y as u32, colour);
             }
         }
-        if let (true, Some(out)) = (first, png) {
+        let wanted = picture_view.map_or(first, |v| v == i);
+        if let (true, Some(out)) = (wanted, png) {
             write_png_srgb(out, &picture).with_context(|| format!("writing {}", out.display()))?;
         }
         first = false;

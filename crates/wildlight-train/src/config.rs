@@ -83,6 +83,10 @@ impl Default for TrainConfig {
 pub struct LossConfig {
     /// L1 colour loss weight.
     pub color: f64,
+    /// Weight of a squared colour error over the same channels as the L1
+    /// term (`crate::loss::add_colour_l2`; the project's addition to SPEC
+    /// §4). 0 (the default) turns it off.
+    pub color_l2: f64,
     /// Eikonal weight (SPEC §4: 0.1).
     pub eikonal: f64,
     /// Mask binary cross-entropy weight (SPEC §4: 1.0).
@@ -103,6 +107,13 @@ pub struct LossConfig {
     /// Largest offset of the smoothness pairs, per axis (normalized units;
     /// offsets are uniform in ±this).
     pub smoothness_radius: f64,
+    /// The material smoothness prior's weight at the last step, as a
+    /// factor of `material_smoothness` (1, the default: constant). From the
+    /// end of the warm-up the factor falls from 1 to this value along the
+    /// learning rate's cosine, so the prior is at full strength while the
+    /// metals separate from the dielectrics and lets the views be fitted
+    /// more closely at the end.
+    pub material_smoothness_final: f64,
     /// Per-parameter factors w_i of the material smoothness prior (all 1
     /// by default): λ · w_i is parameter i's weight. At 3,000 steps (seed
     /// 0) every unequal set tried lost the metals (metallic 0.03, base
@@ -149,6 +160,17 @@ pub struct LossConfig {
     /// the start). Later, the metals have had time to climb past one half
     /// before the prior pushes each point to its nearer end.
     pub binary_metallic_start: u64,
+    /// Weight λ of the visual-hull prior (`crate::visual_hull`; the
+    /// project's addition to SPEC §4): the mean max(0, δ − φ) at points
+    /// outside the masks' visual hull, in the occupied cells of the
+    /// occupancy grid, so that no floater grows away from the object. 0
+    /// turns it off; it needs masks.
+    pub visual_hull: f64,
+    /// Pixels by which each mask is dilated before it carves the hull
+    /// (room for masks a pixel or two off at the outline).
+    pub visual_hull_dilation: u32,
+    /// Points drawn per step for the visual-hull prior.
+    pub visual_hull_points: usize,
 }
 
 /// Per-parameter factors of the material smoothness prior
@@ -236,16 +258,21 @@ impl Default for LossConfig {
     fn default() -> Self {
         Self {
             color: 1.0,
+            color_l2: 0.0,
             eikonal: 0.1,
             mask: 1.0,
             material_smoothness: 0.1,
             smoothness_radius: 0.01,
+            material_smoothness_final: 1.0,
             smoothness_factors: SmoothnessFactors::default(),
             smoothness_relative: RelativeDifference::Pair,
             normal_smoothness: 2.0,
             normal_difference: NormalDifference::Second,
             binary_metallic: 0.0,
             binary_metallic_start: 0,
+            visual_hull: 0.0,
+            visual_hull_dilation: 3,
+            visual_hull_points: 2048,
         }
     }
 }
@@ -635,12 +662,18 @@ impl TrainConfig {
         }
         for (name, v) in [
             ("loss.color", self.loss.color),
+            ("loss.color_l2", self.loss.color_l2),
             ("loss.eikonal", self.loss.eikonal),
             ("loss.mask", self.loss.mask),
             ("loss.material_smoothness", self.loss.material_smoothness),
             ("loss.smoothness_radius", self.loss.smoothness_radius),
+            (
+                "loss.material_smoothness_final",
+                self.loss.material_smoothness_final,
+            ),
             ("loss.normal_smoothness", self.loss.normal_smoothness),
             ("loss.binary_metallic", self.loss.binary_metallic),
+            ("loss.visual_hull", self.loss.visual_hull),
         ]
         .into_iter()
         .chain(self.loss.smoothness_factors.named())

@@ -11,6 +11,8 @@
 //! - [`smoothness`]: an optional smoothness prior on the material field;
 //! - [`normal_smoothness`]: an optional smoothness prior on the normals;
 //! - [`metallic_prior`]: an optional prior pushing metallic towards 0 or 1;
+//! - [`visual_hull`]: the masks' visual hull and a prior keeping the SDF
+//!   positive outside it (no floaters);
 //! - [`trainer`]: the optimisation step, checkpoints;
 //! - [`render_view`]: rendering whole views and their maps;
 //! - [`preview`]: preview images;
@@ -32,6 +34,7 @@ pub mod render_view;
 pub mod run;
 pub mod smoothness;
 pub mod trainer;
+pub mod visual_hull;
 
 pub use config::TrainConfig;
 pub use model::Model;

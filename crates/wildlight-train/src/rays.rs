@@ -56,7 +56,7 @@ pub struct RayShares {
 /// Grows the set flags of a `width × height` image by `radius` pixels in
 /// every direction (a square, Chebyshev-distance dilation; pixels outside
 /// the image count as unset).
-fn dilate(flags: &[bool], width: usize, height: usize, radius: usize) -> Vec<bool> {
+pub(crate) fn dilate(flags: &[bool], width: usize, height: usize, radius: usize) -> Vec<bool> {
     // Separable: a running window along the rows, then along the columns.
     let pass = |src: &[bool], len: usize, count: usize, at: &dyn Fn(usize, usize) -> usize| {
         let mut out = vec![false; src.len()];
@@ -210,6 +210,17 @@ impl TrainingRays {
     /// The error map, to record errors into or restore from a checkpoint.
     pub fn error_map_mut(&mut self) -> Option<&mut ErrorMap> {
         self.error_map.as_mut()
+    }
+
+    /// The visual hull of the views' masks, each dilated by `dilation`
+    /// pixels (`crate::visual_hull`); `None` when a view has no mask.
+    pub fn visual_hull(&self, dilation: usize) -> Option<crate::visual_hull::VisualHull> {
+        let masked: Option<Vec<(&wildlight_data::Camera, &[bool])>> = self
+            .views
+            .iter()
+            .map(|v| v.mask.as_deref().map(|m| (&v.camera, m)))
+            .collect();
+        masked.map(|views| crate::visual_hull::VisualHull::new(views, dilation))
     }
 
     /// Number of silhouette-band pixels over all views.

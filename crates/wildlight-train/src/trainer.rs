@@ -6,13 +6,14 @@
 
 use crate::config::{NormalDifference, TrainConfig};
 use crate::float::dot3;
-use crate::loss::{colour_l1, counted_l1, mask_bce, psnr};
+use crate::loss::{add_colour_l2, colour_l1, counted_l1, mask_bce, psnr};
 use crate::metallic_prior::BinaryMetallic;
 use crate::model::{Model, ModelGrads};
 use crate::normal_smoothness::NormalSmoothness;
 use crate::pipeline::{PassSettings, Pipeline, RayInputs, eval_sdf};
 use crate::rays::{RayBatch, RayShares, TrainingRays};
 use crate::smoothness::{MaterialSmoothness, SmoothnessSettings};
+use crate::visual_hull::HullPrior;
 use anyhow::Context;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -44,6 +45,9 @@ pub struct StepStats {
     /// The binary-metallic prior's mean m (1 − m) over the surface points
     /// (`crate::metallic_prior`; 0 when the prior is off).
     pub binary_metallic: f64,
+    /// The visual-hull prior's mean max(0, δ − φ) over its points outside
+    /// the hull (`crate::visual_hull`; 0 when the prior is off).
+    pub visual_hull: f64,
     /// PSNR of the batch's counted foreground channels (dB, peak 1).
     pub psnr: f64,
     /// NeuS sharpness s.
@@ -93,6 +97,8 @@ pub struct Trainer {
     smoothness: MaterialSmoothness<f32>,
     normal_smoothness: NormalSmoothness<f32>,
     binary_metallic: BinaryMetallic<f32>,
+    /// The visual-hull prior (`None` when off or without masks).
+    hull_prior: Option<HullPrior>,
     rays: TrainingRays,
     adam: Adam<f32>,
     groups: Groups,
@@ -182,6 +188,12 @@ impl Trainer {
             },
         };
         let grads = model.new_grads();
+        let hull_prior = if config.loss.visual_hull > 0.0 {
+            rays.visual_hull(config.loss.visual_hull_dilation as usize)
+                .map(HullPrior::new)
+        } else {
+            None
+        };
         let mut t = Self {
             model,
             step: 0,
@@ -192,6 +204,7 @@ impl Trainer {
             smoothness: MaterialSmoothness::default(),
             normal_smoothness: NormalSmoothness::default(),
             binary_metallic: BinaryMetallic::default(),
+            hull_prior,
             rays,
             adam,
             groups,
@@ -206,6 +219,24 @@ impl Trainer {
         t.apply_step_schedule();
         t.refresh_grid();
         Ok(t)
+    }
+
+    /// The material smoothness prior's weight at `step`: λ ·
+    /// (f + (1 − f) · ½ (1 + cos π a)), where f is
+    /// `loss.material_smoothness_final` and a the fraction of the learning
+    /// rate's decay done by `step` (0 during the warm-up, 1 from the
+    /// planned last step on). λ throughout when f = 1.
+    pub fn material_smoothness_weight(&self, step: u64) -> f64 {
+        let loss = &self.config.loss;
+        let f = loss.material_smoothness_final;
+        if f == 1.0 {
+            return loss.material_smoothness;
+        }
+        let warmup = self.schedule.warmup_steps;
+        let span = self.planned_total_steps().saturating_sub(warmup).max(1) as f64;
+        let a = (step.saturating_sub(warmup) as f64 / span).min(1.0);
+        let shape = 0.5 * (1.0 + (std::f64::consts::PI * a).cos());
+        loss.material_smoothness * (f + (1.0 - f) * shape)
     }
 
     /// Sets the step at which the learning rate reaches its final factor
@@ -258,6 +289,9 @@ impl Trainer {
             s,
             RefreshMode::Full,
         );
+        if let Some(prior) = &mut self.hull_prior {
+            prior.update_cells(&self.grid);
+        }
     }
 
     /// Takes one optimisation step.
@@ -322,6 +356,16 @@ impl Trainer {
             cfg.loss.color as f32,
             &mut self.d_colour,
         );
+        if cfg.loss.color_l2 > 0.0 {
+            add_colour_l2(
+                &self.pipeline.colour,
+                &self.batch.target,
+                &counts,
+                self.rays.saturation,
+                cfg.loss.color_l2 as f32,
+                &mut self.d_colour,
+            );
+        }
         let mask = if has_masks {
             mask_bce(
                 self.pipeline.acc_weight(),
@@ -347,14 +391,27 @@ impl Trainer {
         );
         let (smoothness, normal_smoothness, binary_metallic) =
             self.surface_priors(&mut rng, settings.fd_step, step);
+        let visual_hull = match &mut self.hull_prior {
+            Some(prior) => prior.forward_backward(
+                &self.model.sdf,
+                &self.grid,
+                &mut rng,
+                self.config.loss.visual_hull_points,
+                self.config.loss.visual_hull as f32,
+                &mut self.grads.sdf,
+            ),
+            None => 0.0,
+        };
         self.record_errors(&counts);
         let cfg = &self.config;
         let loss = cfg.loss.color * color
+            + cfg.loss.color_l2 * mse
             + cfg.loss.mask * mask
             + cfg.loss.eikonal * eikonal
-            + cfg.loss.material_smoothness * smoothness
+            + self.material_smoothness_weight(step) * smoothness
             + cfg.loss.normal_smoothness * normal_smoothness
-            + cfg.loss.binary_metallic * binary_metallic;
+            + cfg.loss.binary_metallic * binary_metallic
+            + cfg.loss.visual_hull * visual_hull;
         let lr_factor = self.schedule.factor(step) * self.lr_scale;
         let skipped = !loss.is_finite() || !self.grads.all_finite();
         if skipped {
@@ -374,6 +431,7 @@ impl Trainer {
             smoothness,
             normal_smoothness,
             binary_metallic,
+            visual_hull,
             psnr: psnr(mse, 1.0),
             s: self.model.s() as f64,
             gamma: self.model.gamma() as f64,
@@ -457,13 +515,15 @@ impl Trainer {
         } else {
             &offsets
         };
+        let material_weight = self.material_smoothness_weight(step);
+        let loss = &self.config.loss;
         let material = if loss.material_smoothness > 0.0 {
             self.smoothness.forward_backward(
                 &self.model.material,
                 &centres,
                 &offsets,
                 &SmoothnessSettings {
-                    weight: loss.material_smoothness as f32,
+                    weight: material_weight as f32,
                     factors: loss.smoothness_factors.per_parameter().map(|w| w as f32),
                     relative: loss.smoothness_relative,
                 },
@@ -595,6 +655,9 @@ impl Trainer {
         self.grid
             .restore(&snapshot)
             .with_context(|| format!("{}: occupancy grid", path.display()))?;
+        if let Some(prior) = &mut self.hull_prior {
+            prior.update_cells(&self.grid);
+        }
         Ok(())
     }
 }

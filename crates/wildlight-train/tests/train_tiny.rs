@@ -130,6 +130,43 @@ fn resumed_training_with_error_guided_draws_continues_exactly() {
     });
 }
 
+/// The visual-hull prior draws its points from cells chosen by the
+/// occupancy grid's measured values, which the checkpoint restores; the
+/// squared colour term and the annealed material prior depend on nothing
+/// else than the step either.
+#[test]
+fn resumed_training_with_the_hull_prior_and_the_l2_colour_term_continues_exactly() {
+    check_resume(AmbientModel::NeuralRoom, DEFAULT_SMOOTHNESS, |c| {
+        c.loss.visual_hull = 1.0;
+        c.loss.visual_hull_points = 256;
+        c.loss.color_l2 = 5.0;
+        c.loss.material_smoothness_final = 0.3;
+    });
+}
+
+/// The initial sphere (radius 0.5) reaches beyond the tiny capture's visual
+/// hull, so the hull prior finds points where φ < δ from the first step and
+/// carves them; with weight 0 it never runs.
+#[test]
+fn the_hull_prior_pushes_the_initial_sphere_into_the_hull() {
+    let dir = tempfile::tempdir().unwrap();
+    let dataset = capture(dir.path(), 6, 24);
+    let mut config = small_config(30);
+    config.batch_rays = 96;
+    config.loss.visual_hull = 1.0;
+    let mut trainer = Trainer::new(config.clone(), TrainingRays::new(&dataset)).unwrap();
+    let values: Vec<f64> = (0..30).map(|_| trainer.step().visual_hull).collect();
+    assert!(values[0] > 0.0, "{values:?}");
+    let (early, late) = (
+        values[..5].iter().sum::<f64>(),
+        values[25..].iter().sum::<f64>(),
+    );
+    assert!(late < 0.5 * early, "{values:?}");
+    config.loss.visual_hull = 0.0;
+    let mut off = Trainer::new(config, TrainingRays::new(&dataset)).unwrap();
+    assert!((0..3).all(|_| off.step().visual_hull == 0.0));
+}
+
 #[test]
 fn resumed_training_of_the_plain_neural_ambient_without_the_material_prior_continues_exactly() {
     check_resume(AmbientModel::Neural, 0.0, |_| {});
@@ -306,4 +343,37 @@ fn the_binary_metallic_prior_starts_at_its_step() {
     let values: Vec<f64> = (0..6).map(|_| trainer.step().binary_metallic).collect();
     assert!(values[..3].iter().all(|v| *v == 0.0), "{values:?}");
     assert!(values[3..].iter().all(|v| *v > 0.0), "{values:?}");
+}
+
+/// The material smoothness weight follows the learning rate's cosine from λ
+/// down to λ · `material_smoothness_final`: λ through the warm-up, the
+/// midpoint halfway through the decay, the final value from the planned last
+/// step on; a final factor of 1 keeps it constant.
+#[test]
+fn the_material_smoothness_weight_anneals_with_the_decay() {
+    let dir = tempfile::tempdir().unwrap();
+    let dataset = capture(dir.path(), 4, 16);
+    let mut config = small_config(110);
+    config.loss.material_smoothness = 0.2;
+    config.loss.material_smoothness_final = 0.25;
+    let trainer = Trainer::new(config.clone(), TrainingRays::new(&dataset)).unwrap();
+    // warm-up 10 steps, decay over the 100 after it
+    let w = |s| trainer.material_smoothness_weight(s);
+    assert_eq!(w(0), 0.2);
+    assert_eq!(w(10), 0.2);
+    assert!(
+        (w(60) - 0.2 * (0.25 + 0.75 * 0.5)).abs() < 1e-12,
+        "{}",
+        w(60)
+    );
+    assert!((w(110) - 0.05).abs() < 1e-12, "{}", w(110));
+    assert!((w(500) - 0.05).abs() < 1e-12);
+    assert!(w(30) < w(20) && w(20) < 0.2);
+    config.loss.material_smoothness_final = 1.0;
+    let constant = Trainer::new(config, TrainingRays::new(&dataset)).unwrap();
+    assert!(
+        [0, 60, 110]
+            .iter()
+            .all(|&s| constant.material_smoothness_weight(s) == 0.2)
+    );
 }
