@@ -87,6 +87,9 @@ pub struct LossConfig {
     /// term (`crate::loss::add_colour_l2`; the project's addition to SPEC
     /// §4). 0 (the default) turns it off.
     pub color_l2: f64,
+    /// When the squared colour term starts, as a fraction of the planned
+    /// steps (0, the default: from the first step; 0.5: the second half).
+    pub color_l2_start: f64,
     /// Eikonal weight (SPEC §4: 0.1).
     pub eikonal: f64,
     /// Mask binary cross-entropy weight (SPEC §4: 1.0).
@@ -259,6 +262,7 @@ impl Default for LossConfig {
         Self {
             color: 1.0,
             color_l2: 0.0,
+            color_l2_start: 0.0,
             eikonal: 0.1,
             mask: 1.0,
             material_smoothness: 0.1,
@@ -651,6 +655,12 @@ impl TrainConfig {
                 "foreground_fraction + silhouette_fraction + error_fraction must be at most 1",
             );
         }
+        if self.loss.color_l2_start > 1.0 {
+            return bad(
+                "loss.color_l2_start",
+                "must be a fraction of the run, at most 1",
+            );
+        }
         if self.error_fraction > 0.0 && self.error_tile == 0 {
             return bad("error_tile", "must be at least 1 when error_fraction > 0");
         }
@@ -663,6 +673,7 @@ impl TrainConfig {
         for (name, v) in [
             ("loss.color", self.loss.color),
             ("loss.color_l2", self.loss.color_l2),
+            ("loss.color_l2_start", self.loss.color_l2_start),
             ("loss.eikonal", self.loss.eikonal),
             ("loss.mask", self.loss.mask),
             ("loss.material_smoothness", self.loss.material_smoothness),

@@ -221,6 +221,14 @@ impl Trainer {
         Ok(t)
     }
 
+    /// The squared colour term's weight at `step`: `loss.color_l2` from
+    /// `loss.color_l2_start` × the planned steps on, 0 before.
+    pub fn colour_l2_weight(&self, step: u64) -> f64 {
+        let loss = &self.config.loss;
+        let start = (loss.color_l2_start * self.planned_total_steps() as f64).ceil() as u64;
+        if step >= start { loss.color_l2 } else { 0.0 }
+    }
+
     /// The material smoothness prior's weight at `step`: λ ·
     /// (f + (1 − f) · ½ (1 + cos π a)), where f is
     /// `loss.material_smoothness_final` and a the fraction of the learning
@@ -356,13 +364,15 @@ impl Trainer {
             cfg.loss.color as f32,
             &mut self.d_colour,
         );
-        if cfg.loss.color_l2 > 0.0 {
+        let l2_weight = self.colour_l2_weight(step);
+        let cfg = &self.config;
+        if l2_weight > 0.0 {
             add_colour_l2(
                 &self.pipeline.colour,
                 &self.batch.target,
                 &counts,
                 self.rays.saturation,
-                cfg.loss.color_l2 as f32,
+                l2_weight as f32,
                 &mut self.d_colour,
             );
         }
@@ -405,7 +415,7 @@ impl Trainer {
         self.record_errors(&counts);
         let cfg = &self.config;
         let loss = cfg.loss.color * color
-            + cfg.loss.color_l2 * mse
+            + l2_weight * mse
             + cfg.loss.mask * mask
             + cfg.loss.eikonal * eikonal
             + self.material_smoothness_weight(step) * smoothness

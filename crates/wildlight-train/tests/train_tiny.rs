@@ -377,3 +377,22 @@ fn the_material_smoothness_weight_anneals_with_the_decay() {
             .all(|&s| constant.material_smoothness_weight(s) == 0.2)
     );
 }
+
+/// The squared colour term starts at its fraction of the planned steps.
+#[test]
+fn the_l2_colour_term_starts_at_its_fraction_of_the_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let dataset = capture(dir.path(), 4, 16);
+    let mut config = small_config(40);
+    config.loss.color_l2 = 3.0;
+    config.loss.color_l2_start = 0.5;
+    let mut trainer = Trainer::new(config.clone(), TrainingRays::new(&dataset)).unwrap();
+    assert_eq!(trainer.colour_l2_weight(19), 0.0);
+    assert_eq!(trainer.colour_l2_weight(20), 3.0);
+    // a time budget that plans fewer steps moves the start with it
+    trainer.plan_total_steps(10);
+    assert_eq!(trainer.colour_l2_weight(4), 0.0);
+    assert_eq!(trainer.colour_l2_weight(5), 3.0);
+    config.loss.color_l2_start = 1.5;
+    assert!(config.validate().unwrap_err().contains("color_l2_start"));
+}
