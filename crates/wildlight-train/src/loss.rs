@@ -4,10 +4,31 @@ use crate::float::sign;
 /// Clamp of the accumulated weight inside the mask cross-entropy (SPEC §4).
 pub const MASK_CLAMP: f32 = 1e-3;
 
+/// The (ray, channel, error) triples the colour terms count: the channels
+/// of the rays marked `counts` that are not saturated (SPEC §4: a channel
+/// counts unless both the prediction and the observation are ≥ the cap),
+/// with error e = prediction − observation.
+fn counted_channels<'a>(
+    pred: &'a [[f32; 3]],
+    target: &'a [[f32; 3]],
+    counts: &'a [bool],
+    cap: Option<f32>,
+) -> impl Iterator<Item = (usize, usize, f32)> + 'a {
+    pred.iter()
+        .zip(target)
+        .zip(counts)
+        .enumerate()
+        .filter(|(_, (_, c))| **c)
+        .flat_map(move |(r, ((p, t), _))| {
+            (0..3)
+                .filter(move |&ch| !saturated(p[ch], t[ch], cap))
+                .map(move |ch| (r, ch, p[ch] - t[ch]))
+        })
+}
+
 /// The L1 colour loss over the rays marked `counts`, excluding saturated
-/// channels (SPEC §4: a channel counts unless both the prediction and the
-/// observation are ≥ the cap). Returns (loss, counted channels, MSE of the
-/// counted channels) and writes ∂loss/∂pred · `weight` into `d_pred`.
+/// channels ([`counted_channels`]). Returns (loss, counted channels, MSE of
+/// the counted channels) and writes ∂loss/∂pred · `weight` into `d_pred`.
 pub fn colour_l1(
     pred: &[[f32; 3]],
     target: &[[f32; 3]],
@@ -18,36 +39,25 @@ pub fn colour_l1(
 ) -> (f64, usize, f64) {
     let mut n = 0usize;
     let (mut l1, mut l2) = (0.0f64, 0.0f64);
-    for ((p, t), &c) in pred.iter().zip(target).zip(counts) {
-        if !c {
-            continue;
-        }
-        for ch in 0..3 {
-            if !saturated(p[ch], t[ch], cap) {
-                let e = (p[ch] - t[ch]) as f64;
-                l1 += e.abs();
-                l2 += e * e;
-                n += 1;
-            }
-        }
+    for (_, _, e) in counted_channels(pred, target, counts, cap) {
+        let e = e as f64;
+        l1 += e.abs();
+        l2 += e * e;
+        n += 1;
     }
     let inv = if n > 0 { 1.0 / n as f64 } else { 0.0 };
-    for ((d, (p, t)), &c) in d_pred.iter_mut().zip(pred.iter().zip(target)).zip(counts) {
-        for ch in 0..3 {
-            d[ch] = if c && !saturated(p[ch], t[ch], cap) {
-                weight * sign(p[ch] - t[ch]) * inv as f32
-            } else {
-                0.0
-            };
-        }
+    for d in d_pred.iter_mut() {
+        *d = [0.0; 3];
+    }
+    for (r, ch, e) in counted_channels(pred, target, counts, cap) {
+        d_pred[r][ch] = weight * sign(e) * inv as f32;
     }
     (l1 * inv, n, l2 * inv)
 }
 
-/// The squared colour error over the same channels as [`colour_l1`] (the
-/// rays marked `counts`, saturated channels left out): the mean of e² over
-/// the counted channels. ADDS ∂loss/∂pred · `weight` = `weight` · 2e / n
-/// into `d_pred` and returns the (unweighted) mean.
+/// The squared colour error over the same channels as [`colour_l1`]: the
+/// mean of e² over the counted channels. ADDS ∂loss/∂pred · `weight` =
+/// `weight` · 2e / n into `d_pred` and returns the (unweighted) mean.
 ///
 /// SPEC §4's colour term is the L1 of [`colour_l1`]; L1 fits the median of
 /// what the views say about a pixel, while the PSNR that scores novel views
@@ -62,34 +72,17 @@ pub fn add_colour_l2(
     weight: f32,
     d_pred: &mut [[f32; 3]],
 ) -> f64 {
-    let counted = |p: &[f32; 3], t: &[f32; 3], ch: usize| !saturated(p[ch], t[ch], cap);
-    let mut n = 0usize;
-    let mut sum = 0.0f64;
-    for ((p, t), &c) in pred.iter().zip(target).zip(counts) {
-        if !c {
-            continue;
-        }
-        for ch in 0..3 {
-            if counted(p, t, ch) {
-                let e = (p[ch] - t[ch]) as f64;
-                sum += e * e;
-                n += 1;
-            }
-        }
+    let (mut n, mut sum) = (0usize, 0.0f64);
+    for (_, _, e) in counted_channels(pred, target, counts, cap) {
+        sum += (e as f64) * (e as f64);
+        n += 1;
     }
     if n == 0 {
         return 0.0;
     }
     let scale = 2.0 * weight as f64 / n as f64;
-    for ((d, (p, t)), &c) in d_pred.iter_mut().zip(pred.iter().zip(target)).zip(counts) {
-        if !c {
-            continue;
-        }
-        for ch in 0..3 {
-            if counted(p, t, ch) {
-                d[ch] += (scale * (p[ch] - t[ch]) as f64) as f32;
-            }
-        }
+    for (r, ch, e) in counted_channels(pred, target, counts, cap) {
+        d_pred[r][ch] += (scale * e as f64) as f32;
     }
     sum / n as f64
 }
