@@ -120,7 +120,8 @@ pub struct LossConfig {
     /// end of the warm-up the factor falls from 1 to this value along the
     /// learning rate's cosine, so the prior is at full strength while the
     /// metals separate from the dielectrics and lets the views be fitted
-    /// more closely at the end.
+    /// more closely at the end. At 3,000 steps (seed 0) 0.3 lost base
+    /// colour (21.13 against 22.44 dB) for +0.07 / −0.12 dB of novel views.
     pub material_smoothness_final: f64,
     /// Per-parameter factors w_i of the material smoothness prior (all 1
     /// by default): λ · w_i is parameter i's weight. At 3,000 steps (seed
