@@ -236,15 +236,17 @@ impl Trainer {
     /// planned last step on). λ throughout when f = 1.
     pub fn material_smoothness_weight(&self, step: u64) -> f64 {
         let loss = &self.config.loss;
-        let f = loss.material_smoothness_final;
-        if f == 1.0 {
-            return loss.material_smoothness;
-        }
-        let warmup = self.schedule.warmup_steps;
-        let span = self.planned_total_steps().saturating_sub(warmup).max(1) as f64;
-        let a = (step.saturating_sub(warmup) as f64 / span).min(1.0);
-        let shape = 0.5 * (1.0 + (std::f64::consts::PI * a).cos());
-        loss.material_smoothness * (f + (1.0 - f) * shape)
+        // The learning rate's schedule with factor 1 through the warm-up
+        // and the prior's final factor at its end.
+        let anneal = LrSchedule {
+            warmup_steps: self.schedule.warmup_steps,
+            warmup_start_factor: 1.0,
+            decay: Decay::Cosine {
+                total_steps: self.planned_total_steps(),
+                final_factor: loss.material_smoothness_final,
+            },
+        };
+        loss.material_smoothness * anneal.factor(step)
     }
 
     /// Sets the step at which the learning rate reaches its final factor

@@ -29,7 +29,7 @@
 //! `loss.visual_hull`.
 
 use crate::float::{Float, of, to_f64};
-use glam::{DMat3, DVec3};
+use glam::DVec3;
 use rand::Rng;
 use wildlight_data::Camera;
 use wildlight_fields::{FieldContext, FieldGrads, SdfField};
@@ -38,14 +38,9 @@ use wildlight_render::OccupancyGrid;
 /// The margin δ of the hull prior: φ below it outside the hull costs.
 pub const HULL_MARGIN: f64 = 0.002;
 
-/// One view of the hull: its projection and its background pixels.
+/// One view of the hull: its camera and its background pixels.
 struct HullView {
-    /// K · R (frame to pixels, before the division by depth).
-    kr: DMat3,
-    /// Camera centre in the normalized frame.
-    center: DVec3,
-    width: u32,
-    height: u32,
+    camera: Camera,
     /// Pixels outside the dilated mask (row-major).
     background: Vec<bool>,
 }
@@ -74,10 +69,7 @@ impl VisualHull {
                 );
                 let grown = crate::rays::dilate(mask, w, h, dilation);
                 HullView {
-                    kr: camera.k * camera.w2c(),
-                    center: camera.center,
-                    width: camera.width,
-                    height: camera.height,
+                    camera: camera.clone(),
                     background: grown.iter().map(|on| !on).collect(),
                 }
             })
@@ -100,15 +92,18 @@ impl VisualHull {
     pub fn outside(&self, p: [f64; 3]) -> bool {
         let p = DVec3::from_array(p);
         self.views.iter().any(|v| {
-            let q = v.kr * (p - v.center);
-            if q.z <= 1e-9 {
+            let Some(px) = v
+                .camera
+                .project(p)
+                .filter(|px| v.camera.contains_pixel(*px))
+            else {
                 return false;
-            }
-            let (x, y) = ((q.x / q.z).round(), (q.y / q.z).round());
-            if x < 0.0 || y < 0.0 || x >= v.width as f64 || y >= v.height as f64 {
-                return false;
-            }
-            v.background[y as usize * v.width as usize + x as usize]
+            };
+            // the nearest pixel centre (a coordinate of −0.5 rounds to −1,
+            // which the saturating conversion takes to 0)
+            let (x, y) = (px.x.round() as usize, px.y.round() as usize);
+            let w = v.camera.width as usize;
+            v.background[y.min(v.camera.height as usize - 1) * w + x.min(w - 1)]
         })
     }
 }
@@ -185,11 +180,6 @@ impl HullPrior {
             points: Vec::new(),
             penalty: HullPenalty::default(),
         }
-    }
-
-    /// The hull.
-    pub fn hull(&self) -> &VisualHull {
-        &self.hull
     }
 
     /// Number of cells the points are drawn from.
