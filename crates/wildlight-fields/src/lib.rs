@@ -84,5 +84,5 @@ pub use error::FieldError;
 pub use hash_grid::{HashGrid, HashGridConfig, Interpolation};
 pub use mlp::{CHUNK_ROWS, Mlp, MlpChunk, MlpConfig, MlpContext, MlpScratch};
 pub use neural_field::{FieldContext, FieldGrads, NeuralField, NeuralFieldConfig};
-pub use real::Real;
+pub use real::{Real, all_finite};
 pub use sdf_field::{FdScheme, NormalContext, SdfField, SdfFieldConfig};

@@ -53,6 +53,11 @@ impl<T: Real> FieldGrads<T> {
         self.grid.fill(T::ZERO);
         self.mlp.fill(T::ZERO);
     }
+
+    /// Whether every gradient is finite ([`crate::all_finite`]).
+    pub fn all_finite(&self) -> bool {
+        crate::all_finite(&self.grid) && crate::all_finite(&self.mlp)
+    }
 }
 
 /// Buffers of a batched pass through a [`NeuralField`] (reused across calls).

@@ -64,9 +64,7 @@ impl<T: Float> ModelGrads<T> {
 
     /// Whether every gradient is finite.
     pub fn all_finite(&self) -> bool {
-        let f = |g: &FieldGrads<T>| {
-            g.grid.iter().all(|v| finite(*v)) && g.mlp.iter().all(|v| finite(*v))
-        };
+        let f = FieldGrads::all_finite;
         f(&self.sdf)
             && f(&self.material)
             && f(&self.ambient)
@@ -217,7 +215,8 @@ impl<T: Float> Model<T> {
     /// Whether every parameter is finite.
     pub fn all_finite(&self) -> bool {
         let f = |n: &NeuralField<T>| {
-            n.grid.params.iter().all(|v| finite(*v)) && n.mlp.params.iter().all(|v| finite(*v))
+            wildlight_fields::all_finite(&n.grid.params)
+                && wildlight_fields::all_finite(&n.mlp.params)
         };
         f(&self.sdf.field)
             && f(&self.material)
