@@ -150,6 +150,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         out: run_dir.clone(),
         config,
         time_budget,
+        snapshot_every: None,
         resume: false,
         progress,
     })?;

@@ -31,6 +31,11 @@ pub struct Args {
     /// [default: none: stop after --iters steps].
     #[arg(long, value_name = "DURATION", value_parser = parse_duration)]
     pub time_budget: Option<std::time::Duration>,
+    /// Keep a snapshot of the model each time this much more wall time has passed,
+    /// e.g. 10m: RUN/snapshots/step_NNNNNN/ (a run folder that render, export and eval
+    /// read) [default: none].
+    #[arg(long, value_name = "DURATION", value_parser = parse_duration)]
+    pub snapshot_every: Option<std::time::Duration>,
     /// Seed of every random choice [default: the configuration's `seed`, 0].
     #[arg(long, value_name = "S")]
     pub seed: Option<u64>,
@@ -70,6 +75,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         out,
         config,
         time_budget: args.time_budget,
+        snapshot_every: args.snapshot_every,
         resume: args.resume,
         progress: !args.quiet && std::io::IsTerminal::is_terminal(&std::io::stderr()),
     })?;

@@ -6,6 +6,11 @@
 //! RUN/checkpoint.safetensors   the latest checkpoint (written atomically)
 //! RUN/metrics.jsonl            one JSON line per logged step
 //! RUN/previews/step_NNNNNN.png preview strips
+//! RUN/snapshots/step_NNNNNN/   with a snapshot interval: the model as it
+//!                              was at each mark of wall time (a run folder
+//!                              of its own: config.toml, run.json, the
+//!                              checkpoint, and snapshot.json with the step
+//!                              and the seconds since this invocation began)
 //! ```
 
 use crate::config::TrainConfig;
@@ -27,6 +32,10 @@ pub const RUN_FILE: &str = "run.json";
 pub const CHECKPOINT_FILE: &str = "checkpoint.safetensors";
 /// See [`CONFIG_FILE`].
 pub const METRICS_FILE: &str = "metrics.jsonl";
+/// See [`CONFIG_FILE`].
+pub const SNAPSHOTS_DIR: &str = "snapshots";
+/// See [`CONFIG_FILE`].
+pub const SNAPSHOT_FILE: &str = "snapshot.json";
 
 /// What `run.json` records.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
@@ -49,6 +58,11 @@ pub struct RunOptions {
     pub config: TrainConfig,
     /// Stop after this much wall time.
     pub time_budget: Option<Duration>,
+    /// Keep a snapshot of the model each time this much more wall time has
+    /// passed (`RUN/snapshots/`), e.g. for a training curve against time.
+    /// Unlike frequent checkpoints, which cost a step's worth of time
+    /// each, only the marks pay.
+    pub snapshot_every: Option<Duration>,
     /// Continue the run in `out` from its checkpoint.
     pub resume: bool,
     /// Show a progress bar.
@@ -200,6 +214,7 @@ pub fn train(opts: &RunOptions) -> anyhow::Result<RunSummary> {
         ProgressBar::hidden()
     };
     let mut last = None;
+    let mut snapshots = 0u32;
     while trainer.step < config.iters {
         if opts.time_budget.is_some_and(|b| start.elapsed() >= b) {
             break;
@@ -236,6 +251,14 @@ pub fn train(opts: &RunOptions) -> anyhow::Result<RunSummary> {
         if done.is_multiple_of(config.output.checkpoint_every) {
             trainer.save_checkpoint(&ckpt)?;
         }
+        if let Some(every) = opts.snapshot_every.filter(|e| !e.is_zero()) {
+            let elapsed = start.elapsed();
+            if elapsed >= every * (snapshots + 1) {
+                write_snapshot(&trainer, &opts.out, elapsed)?;
+                // one snapshot however many marks a slow step passed
+                snapshots = (elapsed.as_secs_f64() / every.as_secs_f64()) as u32;
+            }
+        }
         last = Some(stats);
     }
     bar.finish_and_clear();
@@ -251,6 +274,41 @@ pub fn train(opts: &RunOptions) -> anyhow::Result<RunSummary> {
         skipped_steps: trainer.skipped_steps,
         run: opts.out.clone(),
     })
+}
+
+/// What `snapshot.json` records.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct SnapshotInfo {
+    /// Steps taken when the snapshot was written.
+    pub step: u64,
+    /// Seconds since this invocation of the training loop began.
+    pub seconds: f64,
+}
+
+/// Writes `RUN/snapshots/step_NNNNNN/`: the run's configuration and
+/// `run.json`, the trainer's checkpoint and `snapshot.json`, each file
+/// atomically. Named by the step, so a resumed run adds to the snapshots
+/// of earlier invocations and never replaces them.
+fn write_snapshot(trainer: &Trainer, out: &Path, elapsed: Duration) -> anyhow::Result<()> {
+    let dir = out
+        .join(SNAPSHOTS_DIR)
+        .join(format!("step_{:06}", trainer.step));
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    for name in [CONFIG_FILE, RUN_FILE] {
+        let from = out.join(name);
+        let bytes =
+            std::fs::read(&from).with_context(|| format!("cannot read {}", from.display()))?;
+        write_atomic(&dir.join(name), &bytes)?;
+    }
+    trainer.save_checkpoint(&dir.join(CHECKPOINT_FILE))?;
+    let info = SnapshotInfo {
+        step: trainer.step,
+        seconds: elapsed.as_secs_f64(),
+    };
+    write_atomic(
+        &dir.join(SNAPSHOT_FILE),
+        serde_json::to_string_pretty(&info)?.as_bytes(),
+    )
 }
 
 fn write_step_preview(

@@ -396,3 +396,64 @@ fn the_l2_colour_term_starts_at_its_fraction_of_the_run() {
     config.loss.color_l2_start = 1.5;
     assert!(config.validate().unwrap_err().contains("color_l2_start"));
 }
+
+/// `snapshot_every` keeps the model at each mark of wall time in a run
+/// folder of its own; the last one written after the last step holds the
+/// same checkpoint as the run.
+#[test]
+fn snapshots_keep_the_model_at_marks_of_wall_time() {
+    use wildlight_train::run::{CHECKPOINT_FILE, RunOptions, SnapshotInfo, read_run, train};
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("capture");
+    capture(&data, 6, 24);
+    let out = dir.path().join("run");
+    let mut config = small_config(3);
+    config.batch_rays = 96;
+    config.output.preview_every = 0;
+    let summary = train(&RunOptions {
+        data: Some(data),
+        out: out.clone(),
+        config,
+        time_budget: None,
+        // every step takes longer than this: one snapshot per step
+        snapshot_every: Some(std::time::Duration::from_micros(1)),
+        resume: false,
+        progress: false,
+    })
+    .unwrap();
+    assert_eq!(summary.steps, 3);
+    let mut names: Vec<String> = std::fs::read_dir(out.join("snapshots"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["step_000001", "step_000002", "step_000003"]);
+    let mut seconds = 0.0;
+    for (i, name) in names.iter().enumerate() {
+        let snap = out.join("snapshots").join(name);
+        let info: SnapshotInfo =
+            serde_json::from_str(&std::fs::read_to_string(snap.join("snapshot.json")).unwrap())
+                .unwrap();
+        assert_eq!(info.step, i as u64 + 1);
+        assert!(info.seconds > seconds, "{} after {seconds}", info.seconds);
+        seconds = info.seconds;
+        // a run folder of its own
+        let (cfg, _) = read_run(&snap).unwrap();
+        assert_eq!(cfg.iters, 3);
+    }
+    // The checkpoints, loaded: the last snapshot's parameters are the run's.
+    let dataset = Dataset::load(&dir.path().join("capture"), &LoadOptions::default()).unwrap();
+    let (cfg, _) = read_run(&out).unwrap();
+    let params = |run: &Path| {
+        let mut t = Trainer::new(cfg.clone(), TrainingRays::new(&dataset)).unwrap();
+        t.load_checkpoint(&run.join(CHECKPOINT_FILE)).unwrap();
+        (t.step, t.model.sdf.field.grid.params.clone())
+    };
+    let snaps = out.join("snapshots");
+    let (step, last) = params(&snaps.join("step_000003"));
+    assert_eq!(step, 3);
+    assert_eq!(last, params(&out).1);
+    let (step, first) = params(&snaps.join("step_000001"));
+    assert_eq!(step, 1);
+    assert_ne!(first, last);
+}
