@@ -430,9 +430,9 @@ pub struct ModelConfig {
     /// resolution sets the sharpest reflection it can hold (2/128 of the
     /// cube ≈ 0.9°); `hidden = []` makes its output a linear map of the
     /// encoding. A finer room (7 levels up to 256, 2¹⁷ entries) gained base
-    /// colour and lost flash views: 23.78 against 23.35 dB and 27.57 /
-    /// 30.09 against 27.97 / 30.24 dB (flash / no flash) after the
-    /// 30-minute benchmark (seed 2), so the default stays.
+    /// colour and lost both kinds of novel view after the 30-minute
+    /// benchmark (seed 2): 23.78 against 23.35 dB, views 27.57 / 30.09
+    /// against 27.97 / 30.24 dB (flash / no flash), so the default stays.
     pub ambient_room: FieldSize,
 }
 
