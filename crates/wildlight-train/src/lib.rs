@@ -38,4 +38,4 @@ pub mod visual_hull;
 
 pub use config::TrainConfig;
 pub use model::Model;
-pub use trainer::{StepStats, Trainer};
+pub use trainer::{StepStats, StepTimes, Trainer};

@@ -18,6 +18,7 @@ use anyhow::Context;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use std::path::Path;
+use std::time::Instant;
 use wildlight_fields::{
     Adam, AdamConfig, Checkpoint, CheckpointWriter, Checkpointable, Decay, FieldContext, LrSchedule,
 };
@@ -62,6 +63,32 @@ pub struct StepStats {
     pub occupied: f64,
     /// Whether the update was skipped (non-finite loss or gradient).
     pub skipped: bool,
+    /// Wall time of the step's parts.
+    pub phase_ms: StepTimes,
+}
+
+/// Wall time of the parts of one step, in milliseconds (`metrics.jsonl`'s
+/// `phase_ms`): where the step's time goes, measured on every step.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct StepTimes {
+    /// Schedules, the occupancy grid's refresh or reclassification, the
+    /// ray draw and the eikonal points.
+    pub setup: f64,
+    /// The pipeline's forward pass (sampler, fields, compositing).
+    pub forward: f64,
+    /// The losses and the pipeline's backward pass (gradients zeroed first).
+    pub backward: f64,
+    /// The material, normal and metallic priors over the surface points.
+    pub priors: f64,
+    /// The visual-hull prior.
+    pub hull: f64,
+    /// The finiteness check and the Adam update of every group.
+    pub update: f64,
+}
+
+/// Milliseconds from `start` to `end`.
+fn ms(start: Instant, end: Instant) -> f64 {
+    (end - start).as_secs_f64() * 1e3
 }
 
 /// Adam group indices.
@@ -307,6 +334,7 @@ impl Trainer {
     /// Takes one optimisation step.
     pub fn step(&mut self) -> StepStats {
         let step = self.step;
+        let t_start = Instant::now();
         self.apply_step_schedule();
         if step.is_multiple_of(self.config.sampling.grid_refresh_every) {
             self.refresh_grid();
@@ -348,8 +376,10 @@ impl Trainer {
             dirs: &self.batch.dirs,
             energy: &self.batch.energy,
         };
+        let t_forward = Instant::now();
         self.pipeline
             .forward(&self.model, &self.grid, &rays, &eik, &settings);
+        let t_backward = Instant::now();
 
         // Losses (SPEC §4).
         let cfg = &self.config;
@@ -401,8 +431,10 @@ impl Trainer {
             &settings,
             &mut self.grads,
         );
+        let t_priors = Instant::now();
         let (smoothness, normal_smoothness, binary_metallic) =
             self.surface_priors(&mut rng, settings.fd_step, step);
+        let t_hull = Instant::now();
         let visual_hull = match &mut self.hull_prior {
             Some(prior) => prior.forward_backward(
                 &self.model.sdf,
@@ -414,6 +446,7 @@ impl Trainer {
             ),
             None => 0.0,
         };
+        let t_update = Instant::now();
         self.record_errors(&counts);
         let cfg = &self.config;
         let loss = cfg.loss.color * color
@@ -434,6 +467,15 @@ impl Trainer {
             self.apply_adam(lr_factor);
         }
         self.step += 1;
+        let t_end = Instant::now();
+        let phase_ms = StepTimes {
+            setup: ms(t_start, t_forward),
+            forward: ms(t_forward, t_backward),
+            backward: ms(t_backward, t_priors),
+            priors: ms(t_priors, t_hull),
+            hull: ms(t_hull, t_update),
+            update: ms(t_update, t_end),
+        };
         StepStats {
             step,
             loss,
@@ -451,6 +493,7 @@ impl Trainer {
             samples: self.pipeline.n_samples(),
             occupied: self.grid.occupied_fraction() as f64,
             skipped,
+            phase_ms,
         }
     }
 

@@ -84,8 +84,22 @@ fn short_training_reduces_the_loss_and_fits_the_surface() {
     let mut first = Vec::new();
     let mut last = Vec::new();
     for i in 0..iters {
+        let t0 = std::time::Instant::now();
         let st = trainer.step();
+        let wall_ms = t0.elapsed().as_secs_f64() * 1e3;
         assert!(!st.skipped, "step {i} was skipped");
+        // The parts' times are measured and together within the step's own.
+        let p = st.phase_ms;
+        let parts = [p.setup, p.forward, p.backward, p.priors, p.hull, p.update];
+        assert!(parts.iter().all(|t| *t >= 0.0), "step {i}: {p:?}");
+        assert!(
+            p.forward > 0.0 && p.backward > 0.0 && p.update > 0.0,
+            "step {i}: {p:?}"
+        );
+        assert!(
+            parts.iter().sum::<f64>() <= wall_ms,
+            "step {i}: {p:?} in {wall_ms} ms"
+        );
         if i < 20 {
             first.push(st.loss);
         }
