@@ -296,44 +296,22 @@ impl Real for f32 {
 /// `e^x` in `f32` without a libm call, so that loops over it vectorise.
 /// Range reduction `x = n·ln2 + r`, |r| ≤ ln2/2, then a degree-6 polynomial
 /// (Horner steps as fused multiply-adds: half the latency of separate ones).
+/// One value of [`fast_exp_block_f32`], where the steps are.
 #[inline(always)]
 pub fn fast_exp_f32(x: f32) -> f32 {
-    let x = x.clamp(-87.0, 88.0);
-    const LOG2E: f32 = std::f32::consts::LOG2_E;
-    const LN2_HI: f32 = 0.693_145_75;
-    const LN2_LO: f32 = 1.428_606_8e-6;
-    // Round to nearest with the 1.5·2^23 trick (no SSE4.1 `round` needed).
-    const MAGIC: f32 = 12_582_912.0;
-    let n = (x * LOG2E + MAGIC) - MAGIC;
-    let r = (x - n * LN2_HI) - n * LN2_LO;
-    // Taylor coefficients of e^r up to r^6 (error < 2e-7 on |r| ≤ 0.347).
-    let p: f32 = 1.0 / 720.0;
-    let p = p.mul_add(r, 1.0 / 120.0);
-    let p = p.mul_add(r, 1.0 / 24.0);
-    let p = p.mul_add(r, 1.0 / 6.0);
-    let p = p.mul_add(r, 0.5);
-    let p = p.mul_add(r, 1.0);
-    let p = p.mul_add(r, 1.0);
-    // SAFETY: x ∈ [−87, 88], so n ∈ [−126, 127] is finite and fits in i32
-    // (the unchecked conversion vectorises; `as` saturates element by element).
-    let bits = ((unsafe { n.to_int_unchecked::<i32>() } + 127) << 23) as u32;
-    p * f32::from_bits(bits)
+    let mut v = [x];
+    fast_exp_block_f32(&mut v);
+    v[0]
 }
 
 /// `ln(1 + u)` for `u ∈ [0, 1]` in `f32` via `2·atanh(u / (2 + u))`
 /// (s ≤ 1/3, series to s^13 in fused multiply-adds; relative error < 1e-7).
+/// One value of [`fast_ln_1p_unit_block_f32`], where the steps are.
 #[inline(always)]
 pub fn fast_ln_1p_unit_f32(u: f32) -> f32 {
-    let s = u / (2.0 + u);
-    let s2 = s * s;
-    let p: f32 = 1.0 / 13.0;
-    let p = p.mul_add(s2, 1.0 / 11.0);
-    let p = p.mul_add(s2, 1.0 / 9.0);
-    let p = p.mul_add(s2, 1.0 / 7.0);
-    let p = p.mul_add(s2, 1.0 / 5.0);
-    let p = p.mul_add(s2, 1.0 / 3.0);
-    let p = p.mul_add(s2, 1.0);
-    2.0 * s * p
+    let mut v = [u];
+    fast_ln_1p_unit_block_f32(&mut v);
+    v[0]
 }
 
 /// Applies one step to every value of a block (a loop the compiler turns
@@ -346,7 +324,8 @@ macro_rules! each {
     };
 }
 
-/// [`fast_exp_f32`] of a block, stage by stage (identical results).
+/// [`fast_exp_f32`] of every value of a block, stage by stage across the
+/// block (the scalar form is this with one value, so the two agree exactly).
 #[inline(always)]
 pub fn fast_exp_block_f32<const N: usize>(x: &mut [f32; N]) {
     const LOG2E: f32 = std::f32::consts::LOG2_E;
@@ -357,19 +336,23 @@ pub fn fast_exp_block_f32<const N: usize>(x: &mut [f32; N]) {
     let mut r = [0.0f32; N];
     let mut p = [1.0f32 / 720.0; N];
     each!(N, |k| x[k] = x[k].clamp(-87.0, 88.0));
+    // Round to nearest with the 1.5·2^23 trick (no SSE4.1 `round` needed).
     each!(N, |k| n[k] = (x[k] * LOG2E + MAGIC) - MAGIC);
     each!(N, |k| r[k] = (x[k] - n[k] * LN2_HI) - n[k] * LN2_LO);
+    // Taylor coefficients of e^r up to r^6 (error < 2e-7 on |r| ≤ 0.347).
     for c in [1.0 / 120.0, 1.0 / 24.0, 1.0 / 6.0, 0.5, 1.0, 1.0] {
         each!(N, |k| p[k] = p[k].mul_add(r[k], c));
     }
-    // SAFETY: as in `fast_exp_f32`: n ∈ [−126, 127].
+    // SAFETY: x ∈ [−87, 88], so n ∈ [−126, 127] is finite and fits in i32
+    // (the unchecked conversion vectorises; `as` saturates value by value).
     each!(N, |k| x[k] = p[k]
         * f32::from_bits(
             ((unsafe { n[k].to_int_unchecked::<i32>() } + 127) << 23) as u32
         ));
 }
 
-/// [`fast_ln_1p_unit_f32`] of a block, stage by stage (identical results).
+/// [`fast_ln_1p_unit_f32`] of every value of a block, stage by stage (the
+/// scalar form is this with one value).
 #[inline(always)]
 pub fn fast_ln_1p_unit_block_f32<const N: usize>(u: &mut [f32; N]) {
     let mut s = [0.0f32; N];
