@@ -51,7 +51,9 @@ pub struct SurfacePoint {
     pub t: f64,
     /// Hit position (normalized frame).
     pub position: DVec3,
-    /// Unit shading normal (interpolated vertex normals), facing the ray origin's side.
+    /// Unit shading normal (interpolated vertex normals), facing the ray
+    /// origin's side, leaning towards the face normal where the
+    /// interpolated one turns away from the viewer (see `facing_viewer`).
     pub normal: DVec3,
     /// Unit face normal, facing the ray origin.
     pub geometric_normal: DVec3,
@@ -115,7 +117,7 @@ impl RenderScene {
         Some(SurfacePoint {
             t: hit.t,
             position,
-            normal,
+            normal: facing_viewer(normal, geometric_normal, -dir),
             geometric_normal,
         })
     }
@@ -125,6 +127,37 @@ impl RenderScene {
     pub fn occluded(&self, origin: DVec3, dir: DVec3, t_max: f64) -> bool {
         self.bvh.occluded(origin, dir, 0.0, t_max)
     }
+}
+
+/// Below this cosine between the interpolated normal and the direction to
+/// the viewer, the shading normal leans towards the face normal.
+const GRAZING_COSINE: f64 = 0.1;
+
+/// The shading normal at a visible point: the interpolated vertex normal
+/// `shading`, except where it turns away from the viewer `v` (unit).
+///
+/// Interpolated normals are smooth across a crease that the triangles
+/// themselves turn sharply at (the kettle's lid groove, where the handle
+/// meets the body), so a triangle beside the crease that faces the camera
+/// can carry a shading normal that faces away from it; the BRDF is then
+/// zero for every light, and the pixel is exactly black in both the
+/// ambient and the flash image: no real surface looks like that, and no
+/// reconstruction whose normals are its own geometry's can fit it. Where
+/// c = n_s·v is below [`GRAZING_COSINE`] the normal is blended towards the
+/// face normal `geometric` (which faces the viewer, since the ray hit its
+/// front): normalize(w n_s + (1 − w) n_g) with w = clamp(c / 0.1, 0, 1),
+/// continuous in c, and equal to n_s on any surface whose triangles agree
+/// with their vertex normals, as they do on a smooth part seen at a grazing
+/// angle.
+fn facing_viewer(shading: DVec3, geometric: DVec3, v: DVec3) -> DVec3 {
+    let c = shading.dot(v);
+    if c >= GRAZING_COSINE {
+        return shading;
+    }
+    let w = (c / GRAZING_COSINE).clamp(0.0, 1.0);
+    (shading * w + geometric * (1.0 - w))
+        .try_normalize()
+        .unwrap_or(geometric)
 }
 
 /// Settings of the image formation.
@@ -435,6 +468,28 @@ fn gaussian(rng: &mut Pcg32) -> f64 {
 
 #[cfg(test)]
 mod tests {
+    /// A shading normal that faces away from the viewer gives way to the
+    /// face normal; the blend is continuous at both ends of the grazing
+    /// band and leaves normals that face the viewer alone.
+    #[test]
+    fn shading_normals_never_face_away_from_the_viewer() {
+        let v = DVec3::Z;
+        let geometric = DVec3::new(0.6, 0.0, 0.8);
+        let at = |c: f64| {
+            let s = (1.0 - c * c).sqrt();
+            facing_viewer(DVec3::new(-s, 0.0, c), geometric, v)
+        };
+        assert_eq!(at(0.5), DVec3::new(-(0.75f64).sqrt(), 0.0, 0.5));
+        assert_eq!(at(-0.3), geometric);
+        assert_eq!(at(0.0), geometric);
+        // continuous at the top of the band, facing the viewer inside it
+        assert!((at(GRAZING_COSINE - 1e-9) - at(GRAZING_COSINE)).length() < 1e-6);
+        for k in 0..=20 {
+            let n = at(-0.1 + 0.01 * k as f64);
+            assert!((n.length() - 1.0).abs() < 1e-12 && n.dot(v) > 0.0, "{n}");
+        }
+    }
+
     use super::*;
 
     #[test]
