@@ -145,7 +145,7 @@ const GRAZING_COSINE: f64 = 0.1;
 /// reconstruction whose normals are its own geometry's can fit it. Where
 /// c = n_s·v is below [`GRAZING_COSINE`] the normal is blended towards the
 /// face normal `geometric` (which faces the viewer, since the ray hit its
-/// front): normalize(w n_s + (1 − w) n_g) with w = clamp(c / 0.1, 0, 1),
+/// front): normalize(w n_s + (1 − w) n_g) with w = max(c, 0) / [`GRAZING_COSINE`],
 /// continuous in c, and equal to n_s on any surface whose triangles agree
 /// with their vertex normals, as they do on a smooth part seen at a grazing
 /// angle.
@@ -468,6 +468,8 @@ fn gaussian(rng: &mut Pcg32) -> f64 {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+
     /// A shading normal that faces away from the viewer gives way to the
     /// face normal; the blend is continuous at both ends of the grazing
     /// band and leaves normals that face the viewer alone.
@@ -489,8 +491,6 @@ mod tests {
             assert!((n.length() - 1.0).abs() < 1e-12 && n.dot(v) > 0.0, "{n}");
         }
     }
-
-    use super::*;
 
     #[test]
     fn strata_grid_divides_the_sample_count() {
