@@ -20,7 +20,8 @@ use rand_pcg::Pcg64;
 use std::path::Path;
 use std::time::Instant;
 use wildlight_fields::{
-    Adam, AdamConfig, Checkpoint, CheckpointWriter, Checkpointable, Decay, FieldContext, LrSchedule,
+    Adam, AdamConfig, Checkpoint, CheckpointWriter, Checkpointable, Decay, FieldContext,
+    LrSchedule, NeuralField,
 };
 use wildlight_render::{OccupancyGrid, OccupancySnapshot, RefreshMode, Sampler, cos_anneal_ratio};
 
@@ -163,23 +164,46 @@ impl Trainer {
         let model = Model::new(&config.model, config.seed)?;
         let mut adam = Adam::new();
         let o = &config.optim;
-        let grid_cfg = AdamConfig {
-            lr: o.lr_grid,
-            eps: 1e-15,
-            ..AdamConfig::default()
-        };
-        let mlp_cfg = AdamConfig {
-            lr: o.lr_mlp,
-            eps: 1e-15,
-            ..AdamConfig::default()
-        };
+        let (gf, mf) = (&o.grid_lr_factors, &o.mlp_lr_factors);
+        // A field's hash table and MLP, each at its learning rate times the
+        // field's factor.
+        let add_field =
+            |adam: &mut Adam<f32>, name: &str, field: &NeuralField<f32>, gk: f64, mk: f64| {
+                let cfg = |lr: f64| AdamConfig {
+                    lr,
+                    eps: 1e-15,
+                    ..AdamConfig::default()
+                };
+                (
+                    adam.add_group(
+                        &format!("{name}.grid"),
+                        field.grid.params.len(),
+                        cfg(o.lr_grid * gk),
+                    ),
+                    adam.add_group(
+                        &format!("{name}.mlp"),
+                        field.mlp.params.len(),
+                        cfg(o.lr_mlp * mk),
+                    ),
+                )
+            };
+        let (sdf_grid, sdf_mlp) = add_field(&mut adam, "sdf", &model.sdf.field, gf.sdf, mf.sdf);
+        let (mat_grid, mat_mlp) = add_field(
+            &mut adam,
+            "material",
+            &model.material,
+            gf.material,
+            mf.material,
+        );
+        let (amb_grid, amb_mlp) =
+            add_field(&mut adam, "ambient", &model.ambient, gf.ambient, mf.ambient);
         let mut groups = Groups {
-            sdf_grid: adam.add_group("sdf.grid", model.sdf.field.grid.params.len(), grid_cfg),
-            sdf_mlp: adam.add_group("sdf.mlp", model.sdf.field.mlp.params.len(), mlp_cfg),
-            mat_grid: adam.add_group("material.grid", model.material.grid.params.len(), grid_cfg),
-            mat_mlp: adam.add_group("material.mlp", model.material.mlp.params.len(), mlp_cfg),
-            amb_grid: adam.add_group("ambient.grid", model.ambient.grid.params.len(), grid_cfg),
-            amb_mlp: adam.add_group("ambient.mlp", model.ambient.mlp.params.len(), mlp_cfg),
+            sdf_grid,
+            sdf_mlp,
+            mat_grid,
+            mat_mlp,
+            amb_grid,
+            amb_mlp,
             sharpness: adam.add_group(
                 "sharpness",
                 1,
@@ -199,9 +223,12 @@ impl Trainer {
             amb_specular: None,
         };
         if let Some(f) = &model.ambient_specular {
-            groups.amb_specular = Some((
-                adam.add_group("ambient_specular.grid", f.grid.params.len(), grid_cfg),
-                adam.add_group("ambient_specular.mlp", f.mlp.params.len(), mlp_cfg),
+            groups.amb_specular = Some(add_field(
+                &mut adam,
+                "ambient_specular",
+                f,
+                gf.ambient,
+                mf.ambient,
             ));
         }
         let grid = OccupancyGrid::new(config.sampling.occupancy())?;
@@ -254,6 +281,12 @@ impl Trainer {
         let loss = &self.config.loss;
         let start = (loss.color_l2_start * self.planned_total_steps() as f64).ceil() as u64;
         if step >= start { loss.color_l2 } else { 0.0 }
+    }
+
+    /// The first step of the binary-metallic prior:
+    /// `loss.binary_metallic_start` × the planned steps, rounded up.
+    pub fn binary_metallic_start_step(&self) -> u64 {
+        (self.config.loss.binary_metallic_start * self.planned_total_steps() as f64).ceil() as u64
     }
 
     /// The material smoothness prior's weight at `step`: λ ·
@@ -522,7 +555,7 @@ impl Trainer {
     /// (crate::normal_smoothness), each point paired with a point offset
     /// uniformly within `loss.smoothness_radius` per axis, and the
     /// binary-metallic prior (crate::metallic_prior) at the points
-    /// themselves (from step `loss.binary_metallic_start` on); adds their
+    /// themselves (from [`Self::binary_metallic_start_step`] on); adds their
     /// gradients and returns their unweighted values (0 for a prior that is
     /// off, or not yet on). The offsets are drawn only when a
     /// smoothness prior is on, so a run with both off draws the same random
@@ -530,7 +563,7 @@ impl Trainer {
     fn surface_priors(&mut self, rng: &mut Pcg64, fd_step: f64, step: u64) -> (f64, f64, f64) {
         let loss = &self.config.loss;
         let smooth = loss.material_smoothness > 0.0 || loss.normal_smoothness > 0.0;
-        let binary_on = loss.binary_metallic > 0.0 && step >= loss.binary_metallic_start;
+        let binary_on = loss.binary_metallic > 0.0 && step >= self.binary_metallic_start_step();
         if !smooth && !binary_on {
             return (0.0, 0.0, 0.0);
         }

@@ -342,21 +342,59 @@ fn planned_total_steps_shape_the_decay_and_survive_a_checkpoint() {
     assert_eq!(resumed.planned_total_steps(), 12);
 }
 
-/// The binary-metallic prior applies from `loss.binary_metallic_start` on:
-/// its value is 0 on the steps before, positive on the steps after (every
-/// metallic value lies strictly inside (0, 1)).
+/// The binary-metallic prior applies from `loss.binary_metallic_start` of
+/// the planned steps on: its value is 0 on the steps before, positive on the
+/// steps after (every metallic value lies strictly inside (0, 1)).
 #[test]
-fn the_binary_metallic_prior_starts_at_its_step() {
+fn the_binary_metallic_prior_starts_at_its_fraction_of_the_run() {
     let dir = tempfile::tempdir().unwrap();
     let dataset = capture(dir.path(), 6, 24);
     let mut config = small_config(8);
     config.batch_rays = 96;
     config.loss.binary_metallic = 0.1;
-    config.loss.binary_metallic_start = 3;
+    // 0.3 of 8 planned steps: from step ⌈2.4⌉ = 3 on
+    config.loss.binary_metallic_start = 0.3;
     let mut trainer = Trainer::new(config, TrainingRays::new(&dataset)).unwrap();
+    assert_eq!(trainer.binary_metallic_start_step(), 3);
     let values: Vec<f64> = (0..6).map(|_| trainer.step().binary_metallic).collect();
     assert!(values[..3].iter().all(|v| *v == 0.0), "{values:?}");
     assert!(values[3..].iter().all(|v| *v > 0.0), "{values:?}");
+}
+
+/// The per-field learning-rate factors reach the optimiser: with the
+/// material field's factors at 0 its grid and MLP stay as initialised while
+/// the SDF and the ambient field learn; the factor 1 (the default) lets the
+/// material learn too.
+#[test]
+fn per_field_learning_rate_factors_scale_each_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let dataset = capture(dir.path(), 4, 16);
+    let mut config = small_config(5);
+    config.batch_rays = 96;
+    config.optim.grid_lr_factors.material = 0.0;
+    config.optim.mlp_lr_factors.material = 0.0;
+    let mut frozen = Trainer::new(config.clone(), TrainingRays::new(&dataset)).unwrap();
+    let start = frozen.model.clone();
+    for _ in 0..5 {
+        frozen.step();
+    }
+    assert_eq!(
+        frozen.model.material.grid.params,
+        start.material.grid.params
+    );
+    assert_eq!(frozen.model.material.mlp.params, start.material.mlp.params);
+    assert_ne!(
+        frozen.model.sdf.field.mlp.params,
+        start.sdf.field.mlp.params
+    );
+    assert_ne!(frozen.model.ambient.mlp.params, start.ambient.mlp.params);
+    config.optim.grid_lr_factors.material = 1.0;
+    config.optim.mlp_lr_factors.material = 1.0;
+    let mut free = Trainer::new(config, TrainingRays::new(&dataset)).unwrap();
+    for _ in 0..5 {
+        free.step();
+    }
+    assert_ne!(free.model.material.mlp.params, start.material.mlp.params);
 }
 
 /// The material smoothness weight follows the learning rate's cosine from λ
