@@ -15,6 +15,11 @@
 //! material field receives the gradient (the points are held fixed). The
 //! prior is the project's addition to SPEC §4; its weight is
 //! `loss.binary_metallic`, 0 (off) by default.
+//!
+//! A ceiling c (`loss.binary_metallic_ceiling`, default 1: every point)
+//! leaves the points with m_j > c out of the sum (they still count in m):
+//! at c = 0.5 the prior only pushes partial metals down to 0, and the
+//! metals are left to the photographs.
 
 use crate::float::{Float, of, to_f64};
 use wildlight_fields::{FieldContext, FieldGrads, NeuralField};
@@ -29,13 +34,16 @@ pub struct BinaryMetallic<T> {
 
 impl<T: Float + Default> BinaryMetallic<T> {
     /// Evaluates λ · L_binary at `points` and ADDS its gradient with
-    /// respect to the material field's parameters into `grads`. Returns the
-    /// unweighted mean of m (1 − m).
+    /// respect to the material field's parameters into `grads`; points
+    /// whose metallic value is above `ceiling` contribute nothing. Returns
+    /// the unweighted mean of m (1 − m) over the points at or below it
+    /// (divided by all the points).
     pub fn forward_backward(
         &mut self,
         field: &NeuralField<T>,
         points: &[[T; 3]],
         weight: T,
+        ceiling: T,
         grads: &mut FieldGrads<T>,
     ) -> f64 {
         let m = points.len();
@@ -56,6 +64,9 @@ impl<T: Float + Default> BinaryMetallic<T> {
             .zip(self.d_out.chunks_exact_mut(k))
         {
             let metal = theta[METALLIC];
+            if metal > ceiling {
+                continue;
+            }
             sum += to_f64(metal * (T::ONE - metal));
             d[METALLIC] = scale * (T::ONE - of::<T>(2.0) * metal);
         }

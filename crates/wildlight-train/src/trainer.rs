@@ -573,6 +573,7 @@ impl Trainer {
                 &self.model.material,
                 &centres,
                 loss.binary_metallic as f32,
+                loss.binary_metallic_ceiling as f32,
                 &mut self.grads.material,
             )
         } else {

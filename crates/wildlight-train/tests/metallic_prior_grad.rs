@@ -17,7 +17,7 @@ fn loss(model: &Model<f64>, grads: Option<&mut wildlight_fields::FieldGrads<f64>
     let mut term = BinaryMetallic::<f64>::default();
     let mut scratch = model.material.new_grads();
     let g = grads.unwrap_or(&mut scratch);
-    WEIGHT * term.forward_backward(&model.material, &POINTS, WEIGHT, g)
+    WEIGHT * term.forward_backward(&model.material, &POINTS, WEIGHT, 1.0, g)
 }
 
 fn metallic(model: &Model<f64>) -> Vec<f64> {
@@ -66,4 +66,41 @@ fn binary_metallic_pushes_each_point_to_the_nearer_end() {
 #[test]
 fn binary_metallic_gradient_matches_finite_differences() {
     common::check_material_prior_gradient(loss);
+}
+
+#[test]
+fn binary_metallic_leaves_out_points_above_its_ceiling() {
+    let model = tiny_material_model();
+    let m = metallic(&model);
+    let mut sorted = m.clone();
+    sorted.sort_by(f64::total_cmp);
+    // Halfway between two neighbouring values: about half the points above.
+    let k = sorted.len() / 2;
+    let ceiling = 0.5 * (sorted[k - 1] + sorted[k]);
+    let by_hand = m
+        .iter()
+        .filter(|v| **v <= ceiling)
+        .map(|v| v * (1.0 - v))
+        .sum::<f64>()
+        / m.len() as f64;
+    let mut term = BinaryMetallic::<f64>::default();
+    let mut g = model.material.new_grads();
+    let value = term.forward_backward(&model.material, &POINTS, WEIGHT, ceiling, &mut g);
+    assert!(
+        by_hand > 0.0 && (value - by_hand).abs() < 1e-14,
+        "{value} vs {by_hand}"
+    );
+    let full = term.forward_backward(
+        &model.material,
+        &POINTS,
+        WEIGHT,
+        1.0,
+        &mut model.material.new_grads(),
+    );
+    assert!(value < full, "{value} vs {full}");
+    // Below every point: no value and no gradient.
+    let mut g = model.material.new_grads();
+    let none = term.forward_backward(&model.material, &POINTS, WEIGHT, sorted[0] - 1e-9, &mut g);
+    assert_eq!(none, 0.0);
+    assert!(g.grid.iter().chain(&g.mlp).all(|d| *d == 0.0));
 }
