@@ -298,3 +298,78 @@ fn check_whole_pipeline(config: &ModelConfig) {
     assert!(grads.sharpness.abs() > 1e-6 && grads.log_gain.abs() > 1e-6);
     assert!(grads.material.mlp.iter().any(|g| g.abs() > 1e-6));
 }
+
+/// The ambient fields' gradients of a pass: every parameter of the ambient
+/// network and of its second field (the room of the reflected direction).
+fn ambient_gradients(g: &wildlight_train::model::ModelGrads<f64>) -> Vec<f64> {
+    let mut v = [g.ambient.grid.as_slice(), g.ambient.mlp.as_slice()].concat();
+    if let Some(s) = &g.ambient_specular {
+        v.extend_from_slice(&s.grid);
+        v.extend_from_slice(&s.mlp);
+    }
+    v
+}
+
+/// `model.ambient_flash_gradient` scales what the flash rays (rays 0 and 2
+/// of the setup) send to the ambient fields: at 0 these get exactly the
+/// gradient of the no-flash ray alone, at ½ the mean of 0 and 1, while the
+/// flash term's own gradient (the gain) does not change.
+#[test]
+fn the_flash_rays_share_of_the_ambient_gradient_is_scaled() {
+    let s = setup();
+    let grads_at = |factor: f64, setup: &Setup| {
+        let config = ModelConfig {
+            ambient_flash_gradient: factor,
+            ..tiny_config()
+        };
+        let model = prepared_model(&config);
+        let mut grads = model.new_grads();
+        loss(&model, setup, Some(&mut grads));
+        grads
+    };
+    let (full, none, half) = (grads_at(1.0, &s), grads_at(0.0, &s), grads_at(0.5, &s));
+    // The no-flash ray alone: the flash rays' colour gradient zeroed.
+    let mut only_no_flash = setup();
+    for (d, e) in only_no_flash.d_colour.iter_mut().zip(&s.energy) {
+        if e.iter().any(|v| *v != 0.0) {
+            *d = [0.0; 3];
+        }
+    }
+    let alone = grads_at(1.0, &only_no_flash);
+
+    let (a_full, a_none, a_half, a_alone) = (
+        ambient_gradients(&full),
+        ambient_gradients(&none),
+        ambient_gradients(&half),
+        ambient_gradients(&alone),
+    );
+    let largest = a_full.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    assert!(largest > 1e-4, "the ambient fields get a gradient");
+    let differs = a_full
+        .iter()
+        .zip(&a_none)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(
+        differs > 1e-3 * largest,
+        "the flash rays train the ambient at 1"
+    );
+    for (i, (((f, n), h), a)) in a_full
+        .iter()
+        .zip(&a_none)
+        .zip(&a_half)
+        .zip(&a_alone)
+        .enumerate()
+    {
+        assert!(
+            (n - a).abs() <= 1e-12 * largest,
+            "[{i}] at 0: {n} vs the no-flash ray's {a}"
+        );
+        assert!(
+            (h - 0.5 * (f + n)).abs() <= 1e-12 * largest,
+            "[{i}] at ½: {h} vs {}",
+            0.5 * (f + n)
+        );
+    }
+    assert_eq!(full.log_gain, none.log_gain, "the flash term is untouched");
+    assert!(full.log_gain.abs() > 1e-6);
+}
