@@ -124,9 +124,6 @@ pub struct Pipeline<T = f32> {
     // backward buffers
     d_weight: Vec<T>,
     d_colour_sample: Vec<[T; 3]>,
-    /// ∂L/∂a_k passed to the ambient term (the flash rays' scaled by
-    /// `ambient_flash_gradient`).
-    d_ambient: Vec<[T; 3]>,
     d_theta: Vec<[T; PARAM_COUNT]>,
     d_grad: Vec<[T; 3]>,
     d_sdf: Vec<T>,
@@ -390,29 +387,25 @@ impl<T: Float + Default> Pipeline<T> {
         self.d_features.resize(n_points * nf, T::ZERO);
         self.d_normal.clear();
         self.d_normal.resize(n, [T::ZERO; 3]);
+        // The flash photos' share of the ambient term's gradient, scaled (at
+        // 0 their ambient term is a given). In place: the flash term has
+        // taken its gradient above, and nothing reads ∂L/∂c_k after this.
         let flash_factor = model.config.ambient_flash_gradient;
-        let d_ambient = if flash_factor == 1.0 {
-            &self.d_colour_sample
-        } else {
-            // The flash photos' share of the ambient term's gradient,
-            // scaled (at 0 their ambient term is a given).
+        if flash_factor != 1.0 {
             let factor = of::<T>(flash_factor);
-            self.d_ambient.clear();
-            self.d_ambient.extend_from_slice(&self.d_colour_sample);
             for (r, energy) in rays.energy.iter().enumerate() {
                 if energy.iter().any(|e| *e != T::ZERO) {
                     let range = offsets[r] as usize..offsets[r + 1] as usize;
-                    for d in &mut self.d_ambient[range] {
+                    for d in &mut self.d_colour_sample[range] {
                         *d = d.map(|v| v * factor);
                     }
                 }
             }
-            &self.d_ambient
-        };
+        }
         self.ambient_pass.backward(
             model,
             &ambient_inputs(&self.samples, ctx, rays, &self.normals, &self.theta, nf),
-            d_ambient,
+            &self.d_colour_sample,
             &mut grads.ambient,
             grads.ambient_specular.as_mut(),
             AmbientInputGrads {
