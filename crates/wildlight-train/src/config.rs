@@ -334,6 +334,11 @@ pub struct OptimConfig {
     pub c2f_start_levels: usize,
     /// Steps between activating one more level.
     pub c2f_steps_per_level: u64,
+    /// Share of the planned steps during which every point's metallic
+    /// value is held at its start (`model.init_material`'s), with no
+    /// gradient, so that roughness and base colour settle on dielectric
+    /// explanations first (0, the default: never held).
+    pub metallic_hold: f64,
 }
 
 impl Default for OptimConfig {
@@ -350,6 +355,7 @@ impl Default for OptimConfig {
             cos_anneal_steps: 500,
             c2f_start_levels: 4,
             c2f_steps_per_level: 100,
+            metallic_hold: 0.0,
         }
     }
 }
@@ -748,6 +754,7 @@ impl TrainConfig {
                 "loss.binary_metallic_ceiling",
                 self.loss.binary_metallic_ceiling,
             ),
+            ("optim.metallic_hold", self.optim.metallic_hold),
         ] {
             if v > 1.0 {
                 return bad(name, "must be a fraction of the run, at most 1");
@@ -785,6 +792,7 @@ impl TrainConfig {
                 self.loss.binary_metallic_ceiling,
             ),
             ("loss.visual_hull", self.loss.visual_hull),
+            ("optim.metallic_hold", self.optim.metallic_hold),
         ]
         .into_iter()
         .chain(self.loss.smoothness_factors.named())
@@ -981,6 +989,11 @@ mod tests {
             );
         }
         c.model.ambient_flash_gradient = 0.0;
+        for bad_share in [-0.1, 1.1] {
+            c.optim.metallic_hold = bad_share;
+            assert!(c.validate().unwrap_err().contains("optim.metallic_hold"));
+        }
+        c.optim.metallic_hold = 0.5;
         assert!(c.validate().is_ok());
     }
 

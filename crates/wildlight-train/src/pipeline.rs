@@ -16,7 +16,7 @@ use crate::ambient::{AmbientInputGrads, AmbientInputs, AmbientPass};
 use crate::float::{Float, finite, norm3, of, safe_norm3, to_f64, unit3, unit3_backward};
 use crate::model::{Model, ModelGrads};
 use wildlight_fields::{FdScheme, FieldContext, NormalContext};
-use wildlight_material::PARAM_COUNT;
+use wildlight_material::{METALLIC, PARAM_COUNT};
 use wildlight_render::{
     CoarseSamples, FlashCache, FlashInputs, NeusInputs, NeusSettings, NeusWeights, OccupancyGrid,
     RaySamples, Rays, Sampler, composite, composite_backward, flash_backward, flash_forward,
@@ -88,6 +88,9 @@ pub struct PassSettings {
     /// The ε of the NeuS alpha (SPEC §2: 1e-5, [`wildlight_render::neus::ALPHA_EPS`]);
     /// comparisons between samplers set it to 0 (see [`NeusSettings::alpha_eps`]).
     pub alpha_eps: f64,
+    /// Holds every sample's metallic value at this (no gradient reaches the
+    /// material field through it); `None`: the field's own.
+    pub metallic_hold: Option<f64>,
 }
 
 /// Buffers and results of a pass.
@@ -242,6 +245,12 @@ impl<T: Float + Default> Pipeline<T> {
                 .chunks_exact(PARAM_COUNT)
                 .map(|r| <[T; PARAM_COUNT]>::try_from(r).expect("9 outputs")),
         );
+        if let Some(m) = settings.metallic_hold {
+            let m = of::<T>(m);
+            for theta in &mut self.theta {
+                theta[METALLIC] = m;
+            }
+        }
 
         // Unit normals n = ∇φ/|∇φ| and the ambient term (crate::ambient).
         self.normals.clear();
@@ -423,7 +432,12 @@ impl<T: Float + Default> Pipeline<T> {
             }
         }
 
-        // Material field.
+        // Material field (a held metallic value passes no gradient).
+        if settings.metallic_hold.is_some() {
+            for d in &mut self.d_theta {
+                d[METALLIC] = T::ZERO;
+            }
+        }
         model.material.backward(
             &mut self.material_ctx,
             self.d_theta.as_flattened(),

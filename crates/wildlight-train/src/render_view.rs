@@ -37,6 +37,7 @@ pub fn render_view(
         jitter_seed: None,
         for_backward: false,
         alpha_eps: wildlight_render::neus::ALPHA_EPS,
+        metallic_hold: None,
     };
     let (mut origins, mut dirs) = (Vec::new(), Vec::new());
     for start in (0..n).step_by(RENDER_CHUNK) {

@@ -23,6 +23,7 @@ use wildlight_fields::{
     Adam, AdamConfig, Checkpoint, CheckpointWriter, Checkpointable, Decay, FieldContext,
     LrSchedule, NeuralField,
 };
+use wildlight_material::METALLIC;
 use wildlight_render::{OccupancyGrid, OccupancySnapshot, RefreshMode, Sampler, cos_anneal_ratio};
 
 /// What one step measured.
@@ -284,6 +285,12 @@ impl Trainer {
     }
 
     /// The first step of the binary-metallic prior:
+    /// `optim.metallic_hold` × the planned steps, rounded up: the steps
+    /// that hold every metallic value at its start.
+    pub fn metallic_hold_steps(&self) -> u64 {
+        (self.config.optim.metallic_hold * self.planned_total_steps() as f64).ceil() as u64
+    }
+
     /// `loss.binary_metallic_start` × the planned steps, rounded up.
     pub fn binary_metallic_start_step(&self) -> u64 {
         (self.config.loss.binary_metallic_start * self.planned_total_steps() as f64).ceil() as u64
@@ -403,6 +410,8 @@ impl Trainer {
             jitter_seed: Some(mix(self.config.seed, step, 2)),
             for_backward: true,
             alpha_eps: wildlight_render::neus::ALPHA_EPS,
+            metallic_hold: (step < self.metallic_hold_steps())
+                .then(|| f64::from(self.config.model.init_material[METALLIC])),
         };
         let rays = RayInputs {
             origins: &self.batch.origins,

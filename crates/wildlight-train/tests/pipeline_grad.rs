@@ -80,6 +80,7 @@ fn setup() -> Setup {
             jitter_seed: None,
             for_backward: true,
             alpha_eps: wildlight_render::neus::ALPHA_EPS,
+            metallic_hold: None,
         },
     }
 }
@@ -211,6 +212,24 @@ fn whole_pipeline_with_two_ambient_sh_bands_matches_finite_differences() {
     check_whole_pipeline(&config);
 }
 
+/// Metallic held at a constant (`optim.metallic_hold`): the colour changes
+/// (the held value is not the field's), and the material field's gradient
+/// has no part through metallic, or the finite differences, which cannot
+/// move the held value, would disagree with it.
+#[test]
+fn whole_pipeline_with_metallic_held_matches_finite_differences() {
+    let config = ModelConfig {
+        init_material: [0.6, 0.4, 0.3, 0.5, 0.5, 0.3, 0.4, 0.5, 0.4],
+        ..tiny_config()
+    };
+    let mut held = setup();
+    held.settings.metallic_hold = Some(0.9);
+    let model = prepared_model(&config);
+    let (free, fixed) = (loss(&model, &setup(), None), loss(&model, &held, None));
+    assert!((free - fixed).abs() > 1e-4, "{free} vs {fixed}");
+    check_whole_pipeline_in(&config, held);
+}
+
 /// The tiny model with its hash tables moved away from their tiny initial
 /// values, so that their gradients are not negligible.
 fn prepared_model(config: &ModelConfig) -> Model<f64> {
@@ -234,7 +253,11 @@ fn prepared_model(config: &ModelConfig) -> Model<f64> {
 
 /// Checks the analytic gradients against central differences.
 fn check_whole_pipeline(config: &ModelConfig) {
-    let s = setup();
+    check_whole_pipeline_in(config, setup());
+}
+
+/// [`check_whole_pipeline`] for the rays and settings of `s`.
+fn check_whole_pipeline_in(config: &ModelConfig, s: Setup) {
     let model = prepared_model(config);
     let mut grads = model.new_grads();
     let base = loss(&model, &s, Some(&mut grads));

@@ -3,6 +3,7 @@
 
 use std::path::Path;
 use wildlight_data::{Dataset, LoadOptions};
+use wildlight_material::{METALLIC, ROUGHNESS};
 use wildlight_synth::{RigOptions, SynthOptions, synthesize};
 use wildlight_train::config::{AmbientModel, FieldSize, TrainConfig};
 use wildlight_train::pipeline::eval_sdf;
@@ -359,6 +360,39 @@ fn the_binary_metallic_prior_starts_at_its_fraction_of_the_run() {
     let values: Vec<f64> = (0..6).map(|_| trainer.step().binary_metallic).collect();
     assert!(values[..3].iter().all(|v| *v == 0.0), "{values:?}");
     assert!(values[3..].iter().all(|v| *v > 0.0), "{values:?}");
+}
+
+/// `optim.metallic_hold` holds metallic for its share of the planned steps:
+/// with no material prior, the material network's metallic bias gets no
+/// gradient on those steps while its roughness bias learns, and learns
+/// after them.
+#[test]
+fn metallic_is_held_for_its_share_of_the_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let dataset = capture(dir.path(), 6, 24);
+    let mut config = small_config(8);
+    config.batch_rays = 96;
+    config.loss.material_smoothness = 0.0;
+    // 0.5 of 8 planned steps: steps 0 to 3
+    config.optim.metallic_hold = 0.5;
+    let mut trainer = Trainer::new(config, TrainingRays::new(&dataset)).unwrap();
+    assert_eq!(trainer.metallic_hold_steps(), 4);
+    let biases = |t: &Trainer| {
+        let mlp = &t.model.material.mlp;
+        let b = mlp.layers().last().unwrap().bias_offset;
+        (mlp.params[b + METALLIC], mlp.params[b + ROUGHNESS])
+    };
+    let start = biases(&trainer);
+    for _ in 0..4 {
+        trainer.step();
+    }
+    let held = biases(&trainer);
+    assert_eq!(held.0, start.0, "metallic held");
+    assert_ne!(held.1, start.1, "roughness learns");
+    for _ in 0..2 {
+        trainer.step();
+    }
+    assert_ne!(biases(&trainer).0, start.0, "metallic free after the hold");
 }
 
 /// The per-field learning-rate factors reach the optimiser: with the
