@@ -1,10 +1,12 @@
 //! Where a reconstruction's image error is, by kind of pixel: on the
 //! held-out views of a synthetic capture, each mask pixel is put in one of
-//! three regions, and each region gets its share of the pixels, its share of
+//! four regions, and each region gets its share of the pixels, its share of
 //! the squared image error (values clipped at 1) and its own PSNR, for the
 //! flash and the no-flash views:
 //!
 //! - **silhouette**: within 2 pixels of a pixel outside the mask;
+//! - **clipped**: elsewhere, where the photo reaches 1 in some channel (the
+//!   flash's highlights, and bright reflections of the room);
 //! - **turning**: elsewhere, where the true normal changes by more than
 //!   0.05 in some component towards a neighbour (grooves, rims, creases, and
 //!   parts curved more tightly than about 20 pixels per radian: at the
@@ -15,7 +17,8 @@
 //! With a third argument, writes a PNG of one held-out view (the first, or
 //! the view index given as a fourth argument): the photo, the rendering
 //! (both clipped at 1) and each mask pixel's RMS error (×4) in red
-//! (silhouette), green (turning) or blue (smooth), side by side.
+//! (silhouette), yellow (clipped), green (turning) or blue (smooth), side
+//! by side.
 //!
 //! ```sh
 //! wildlight render --run RUN --data CAPTURE --split val --out RENDER
@@ -34,13 +37,15 @@ const SILHOUETTE_BAND: i64 = 2;
 /// A normal component change above this towards a neighbour marks a turning pixel.
 const TURN: f32 = 0.05;
 
-const REGIONS: [&str; 3] = ["silhouette", "turning", "smooth"];
+const REGIONS: [&str; 4] = ["silhouette", "clipped", "turning", "smooth"];
+/// A photo value at or above this counts as clipped.
+const CLIP: f32 = 0.999;
 
 /// Squared error and pixel count of each region, flash and no flash.
 #[derive(Default)]
 struct Tally {
-    sq: [[f64; 3]; 2],
-    pixels: [[usize; 3]; 2],
+    sq: [[f64; 4]; 2],
+    pixels: [[usize; 4]; 2],
 }
 
 fn read(dir: &Path, kind: &str, index: usize) -> Result<RgbImage> {
@@ -48,8 +53,9 @@ fn read(dir: &Path, kind: &str, index: usize) -> Result<RgbImage> {
     read_exr_rgb(&path).with_context(|| format!("reading {}", path.display()))
 }
 
-/// The region of pixel (x, y) of the mask, given the true normals.
-fn region(mask: &Mask, normal: &RgbImage, x: i64, y: i64) -> usize {
+/// The region of pixel (x, y) of the mask, given the photo and the true
+/// normals (an index into [`REGIONS`]).
+fn region(mask: &Mask, photo: &RgbImage, normal: &RgbImage, x: i64, y: i64) -> usize {
     let (w, h) = (mask.width as i64, mask.height as i64);
     let inside =
         |x: i64, y: i64| x >= 0 && y >= 0 && x < w && y < h && mask.data[(y * w + x) as usize];
@@ -58,13 +64,16 @@ fn region(mask: &Mask, normal: &RgbImage, x: i64, y: i64) -> usize {
         return 0;
     }
     let j = (y * w + x) as usize;
+    if (0..3).any(|c| photo.data[3 * j + c] >= CLIP) {
+        return 1;
+    }
     let turning = (-1..=1).any(|dy| {
         (-1..=1).any(|dx| {
             let k = ((y + dy) * w + x + dx) as usize;
             (0..3).any(|c| (normal.data[3 * k + c] - normal.data[3 * j + c]).abs() > TURN)
         })
     });
-    if turning { 1 } else { 2 }
+    if turning { 2 } else { 3 }
 }
 
 fn psnr(sq: f64, values: usize) -> f64 {
@@ -119,7 +128,7 @@ fn main() -> Result<()> {
                 if !mask.data[j] {
                     continue;
                 }
-                let r = region(&mask, &normal, x, y);
+                let r = region(&mask, &photo, &normal, x, y);
                 let sq: f64 = (0..3)
                     .map(|c| {
                         let d = rendering.data[3 * j + c].min(1.0) - photo.data[3 * j + c].min(1.0);
@@ -128,8 +137,13 @@ fn main() -> Result<()> {
                     .sum();
                 tally.sq[flash][r] += sq;
                 tally.pixels[flash][r] += 1;
-                let mut colour = [0.0f32; 3];
-                colour[r] = (4.0 * (sq / 3.0).sqrt()) as f32;
+                let e = (4.0 * (sq / 3.0).sqrt()) as f32;
+                let colour = match r {
+                    0 => [e, 0.0, 0.0],
+                    1 => [e, e, 0.0],
+                    2 => [0.0, e, 0.0],
+                    _ => [0.0, 0.0, e],
+                };
                 picture.set(2 * w + x as u32, y as u32, colour);
             }
         }

@@ -23,7 +23,7 @@ use wildlight_fields::{
     Adam, AdamConfig, Checkpoint, CheckpointWriter, Checkpointable, Decay, FieldContext,
     LrSchedule, NeuralField,
 };
-use wildlight_material::METALLIC;
+use wildlight_material::{METALLIC, PARAM_COUNT};
 use wildlight_render::{OccupancyGrid, OccupancySnapshot, RefreshMode, Sampler, cos_anneal_ratio};
 
 /// What one step measured.
@@ -616,17 +616,42 @@ impl Trainer {
         let material_weight = self.material_smoothness_weight(step);
         let loss = &self.config.loss;
         let material = if loss.material_smoothness > 0.0 {
-            self.smoothness.forward_backward(
+            // The parameters of `wide_smoothness_parameters` are compared
+            // at the wide offsets, drawn (after the others) only when there
+            // are any, so a run without them draws what it drew before.
+            let (near, far) = loss
+                .smoothness_factors
+                .split(&loss.wide_smoothness_parameters);
+            let wide_offsets: Option<Vec<[f32; 3]>> = (!loss.wide_smoothness_parameters.is_empty())
+                .then(|| {
+                    let r = loss.wide_smoothness_radius as f32;
+                    centres
+                        .iter()
+                        .map(|_| [0; 3].map(|_| rng.random_range(-r..=r)))
+                        .collect()
+                });
+            let settings = |factors: [f64; PARAM_COUNT]| SmoothnessSettings {
+                weight: material_weight as f32,
+                factors: factors.map(|w| w as f32),
+                relative: loss.smoothness_relative,
+            };
+            let mut value = self.smoothness.forward_backward(
                 &self.model.material,
                 &centres,
                 &offsets,
-                &SmoothnessSettings {
-                    weight: material_weight as f32,
-                    factors: loss.smoothness_factors.per_parameter().map(|w| w as f32),
-                    relative: loss.smoothness_relative,
-                },
+                &settings(near),
                 &mut self.grads.material,
-            )
+            );
+            if let Some(wide) = &wide_offsets {
+                value += self.smoothness.forward_backward(
+                    &self.model.material,
+                    &centres,
+                    wide,
+                    &settings(far),
+                    &mut self.grads.material,
+                );
+            }
+            value
         } else {
             0.0
         };

@@ -5,7 +5,7 @@ use std::path::Path;
 use wildlight_data::{Dataset, LoadOptions};
 use wildlight_material::{METALLIC, ROUGHNESS};
 use wildlight_synth::{RigOptions, SynthOptions, synthesize};
-use wildlight_train::config::{AmbientModel, FieldSize, TrainConfig};
+use wildlight_train::config::{AmbientModel, FieldSize, SmoothnessFactors, TrainConfig};
 use wildlight_train::pipeline::eval_sdf;
 use wildlight_train::rays::TrainingRays;
 use wildlight_train::trainer::Trainer;
@@ -360,6 +360,37 @@ fn the_binary_metallic_prior_starts_at_its_fraction_of_the_run() {
     let values: Vec<f64> = (0..6).map(|_| trainer.step().binary_metallic).collect();
     assert!(values[..3].iter().all(|v| *v == 0.0), "{values:?}");
     assert!(values[3..].iter().all(|v| *v > 0.0), "{values:?}");
+}
+
+/// `loss.wide_smoothness_parameters` compares the named parameters at the
+/// wide offsets: with every factor but roughness at 0 and the ordinary
+/// pairs almost coincident, the prior's value comes from the wide pairs
+/// when roughness is named, and is almost nothing when it is not.
+#[test]
+fn wide_smoothness_pairs_use_their_own_radius() {
+    let dir = tempfile::tempdir().unwrap();
+    let dataset = capture(dir.path(), 6, 24);
+    let run = |wide: &[&str]| {
+        let mut config = small_config(8);
+        config.batch_rays = 96;
+        config.loss.smoothness_radius = 1e-6;
+        config.loss.smoothness_factors = SmoothnessFactors {
+            base_color: 0.0,
+            roughness: 1.0,
+            clearcoat_gloss: 0.0,
+            subsurface: 0.0,
+            metallic: 0.0,
+            dielectric: 0.0,
+            clearcoat: 0.0,
+        };
+        config.loss.wide_smoothness_radius = 0.3;
+        config.loss.wide_smoothness_parameters = wide.iter().map(|s| s.to_string()).collect();
+        let mut trainer = Trainer::new(config, TrainingRays::new(&dataset)).unwrap();
+        (0..4).map(|_| trainer.step().smoothness).last().unwrap()
+    };
+    let (wide, near) = (run(&["roughness"]), run(&[]));
+    assert!(wide > 1e-5, "{wide}");
+    assert!(wide > 100.0 * near, "{wide} against {near}");
 }
 
 /// `optim.metallic_hold` holds metallic for its share of the planned steps:
