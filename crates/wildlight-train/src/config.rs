@@ -140,6 +140,13 @@ pub struct LossConfig {
     /// λ = 0.05 or 0.1 (3,000 steps, seed 0) lost the metals: base colour
     /// 14.0 / 14.1 dB.
     pub smoothness_relative: RelativeDifference,
+    /// The pairs' offset at the first step (0, the default: always
+    /// `smoothness_radius`). From the end of the warm-up the offset falls
+    /// from this value to `smoothness_radius` along the learning rate's
+    /// cosine, for the material and the normal prior alike, so that the
+    /// parts settle under the wide prior and patterns within a part
+    /// sharpen under the narrow one.
+    pub smoothness_radius_start: f64,
     /// Offset of a second set of smoothness pairs, per axis (normalized
     /// units; 0, the default: none), for the parameters named in
     /// `wide_smoothness_parameters`, which are then compared at this offset
@@ -346,6 +353,7 @@ impl Default for LossConfig {
             material_smoothness_final: 1.0,
             smoothness_factors: SmoothnessFactors::default(),
             smoothness_relative: RelativeDifference::Pair,
+            smoothness_radius_start: 0.0,
             wide_smoothness_radius: 0.0,
             wide_smoothness_parameters: Vec::new(),
             normal_smoothness: 2.0,
@@ -844,6 +852,10 @@ impl TrainConfig {
             (
                 "loss.wide_smoothness_radius",
                 self.loss.wide_smoothness_radius,
+            ),
+            (
+                "loss.smoothness_radius_start",
+                self.loss.smoothness_radius_start,
             ),
             (
                 "loss.material_smoothness_final",

@@ -316,6 +316,26 @@ impl Trainer {
         loss.material_smoothness * anneal.factor(step)
     }
 
+    /// The smoothness pairs' offset at `step`: `loss.smoothness_radius`,
+    /// or, with `loss.smoothness_radius_start` set, that offset through the
+    /// warm-up falling along the learning rate's cosine to
+    /// `smoothness_radius` at the last planned step.
+    pub fn smoothness_radius(&self, step: u64) -> f64 {
+        let loss = &self.config.loss;
+        if loss.smoothness_radius_start <= 0.0 {
+            return loss.smoothness_radius;
+        }
+        let anneal = LrSchedule {
+            warmup_steps: self.schedule.warmup_steps,
+            warmup_start_factor: 1.0,
+            decay: Decay::Cosine {
+                total_steps: self.planned_total_steps(),
+                final_factor: loss.smoothness_radius / loss.smoothness_radius_start,
+            },
+        };
+        loss.smoothness_radius_start * anneal.factor(step)
+    }
+
     /// Sets the step at which the learning rate reaches its final factor
     /// (the cosine decay's length), e.g. from the steps a time budget is
     /// expected to allow. It never exceeds the configured `iters`.
@@ -591,7 +611,7 @@ impl Trainer {
         if !smooth {
             return (0.0, 0.0, binary);
         }
-        let r = loss.smoothness_radius as f32;
+        let r = self.smoothness_radius(step) as f32;
         let offsets: Vec<[f32; 3]> = centres
             .iter()
             .map(|_| [0; 3].map(|_| rng.random_range(-r..=r)))

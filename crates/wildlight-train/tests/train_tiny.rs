@@ -393,6 +393,31 @@ fn wide_smoothness_pairs_use_their_own_radius() {
     assert!(wide > 100.0 * near, "{wide} against {near}");
 }
 
+/// `loss.smoothness_radius_start` sets the pairs' offset through the
+/// warm-up, which then falls steadily to `smoothness_radius` at the last
+/// planned step; without it the offset is constant.
+#[test]
+fn the_smoothness_radius_narrows_from_its_start() {
+    let dir = tempfile::tempdir().unwrap();
+    let dataset = capture(dir.path(), 6, 24);
+    let mut config = small_config(200);
+    config.optim.warmup_steps = 20;
+    config.loss.smoothness_radius = 0.01;
+    let constant = Trainer::new(config.clone(), TrainingRays::new(&dataset)).unwrap();
+    assert!((0..=200).all(|s| constant.smoothness_radius(s) == 0.01));
+    config.loss.smoothness_radius_start = 0.03;
+    let trainer = Trainer::new(config, TrainingRays::new(&dataset)).unwrap();
+    let r: Vec<f64> = (0..=200).map(|s| trainer.smoothness_radius(s)).collect();
+    assert!(
+        r[..=20].iter().all(|v| (v - 0.03).abs() < 1e-12),
+        "{:?}",
+        &r[..=20]
+    );
+    assert!((r[200] - 0.01).abs() < 1e-12, "{}", r[200]);
+    assert!(r.windows(2).all(|w| w[1] <= w[0]), "{r:?}");
+    assert!(r[110] > 0.012 && r[110] < 0.028, "{}", r[110]);
+}
+
 /// `optim.metallic_hold` holds metallic for its share of the planned steps:
 /// with no material prior, the material network's metallic bias gets no
 /// gradient on those steps while its roughness bias learns, and learns
