@@ -147,8 +147,8 @@ fn resumed_training_with_error_guided_draws_continues_exactly() {
 
 /// The visual-hull prior draws its points from cells chosen by the
 /// occupancy grid's measured values, which the checkpoint restores; the
-/// squared colour term and the annealed material prior depend on nothing
-/// else than the step either.
+/// squared colour term, the annealed material prior and the narrowing
+/// smoothness offset depend on nothing else than the step either.
 #[test]
 fn resumed_training_with_the_hull_prior_and_the_l2_colour_term_continues_exactly() {
     check_resume(AmbientModel::NeuralRoom, DEFAULT_SMOOTHNESS, |c| {
@@ -156,6 +156,7 @@ fn resumed_training_with_the_hull_prior_and_the_l2_colour_term_continues_exactly
         c.loss.visual_hull_points = 256;
         c.loss.color_l2 = 5.0;
         c.loss.material_smoothness_final = 0.3;
+        c.loss.smoothness_radius_start = 0.02;
     });
 }
 
