@@ -118,7 +118,8 @@ pub struct LossConfig {
     /// Largest offset of the smoothness pairs, per axis (normalized units;
     /// offsets are uniform in ±this). 0.02 by default (0.01 until session
     /// 21): with `material_smoothness_final` 0.3, at 3,000 steps, base
-    /// colour 24.99 against 22.91 dB on seed 0, 24.34 against 21.47 dB on seed 1, the views
+    /// colour 24.99 against 22.91 dB on seed 0, 24.34 against 21.47 dB on
+    /// seed 1, 20.79 against 20.90 dB on seed 2, the views
     /// within 0.1 dB: the wider pairs find the metals' roughness and F0,
     /// the weaker prior at the end lets the glaze's dots sharpen again.
     pub smoothness_radius: f64,
