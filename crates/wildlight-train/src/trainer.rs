@@ -280,20 +280,39 @@ impl Trainer {
     /// `loss.color_l2_start` × the planned steps on, 0 before.
     pub fn colour_l2_weight(&self, step: u64) -> f64 {
         let loss = &self.config.loss;
-        let start = (loss.color_l2_start * self.planned_total_steps() as f64).ceil() as u64;
+        let start = self.share_of_planned_steps(loss.color_l2_start);
         if step >= start { loss.color_l2 } else { 0.0 }
     }
 
-    /// The first step of the binary-metallic prior:
-    /// `optim.metallic_hold` × the planned steps, rounded up: the steps
-    /// that hold every metallic value at its start.
-    pub fn metallic_hold_steps(&self) -> u64 {
-        (self.config.optim.metallic_hold * self.planned_total_steps() as f64).ceil() as u64
+    /// `share` × the planned steps, rounded up.
+    fn share_of_planned_steps(&self, share: f64) -> u64 {
+        (share * self.planned_total_steps() as f64).ceil() as u64
     }
 
+    /// The steps that hold every metallic value at its start:
+    /// `optim.metallic_hold` × the planned steps, rounded up.
+    pub fn metallic_hold_steps(&self) -> u64 {
+        self.share_of_planned_steps(self.config.optim.metallic_hold)
+    }
+
+    /// The first step of the binary-metallic prior:
     /// `loss.binary_metallic_start` × the planned steps, rounded up.
     pub fn binary_metallic_start_step(&self) -> u64 {
-        (self.config.loss.binary_metallic_start * self.planned_total_steps() as f64).ceil() as u64
+        self.share_of_planned_steps(self.config.loss.binary_metallic_start)
+    }
+
+    /// The learning rate's schedule with factor 1 through the warm-up,
+    /// falling along its cosine to `final_factor` at the planned last step:
+    /// the annealing of the priors' weight and offset.
+    fn prior_anneal(&self, final_factor: f64) -> LrSchedule {
+        LrSchedule {
+            warmup_steps: self.schedule.warmup_steps,
+            warmup_start_factor: 1.0,
+            decay: Decay::Cosine {
+                total_steps: self.planned_total_steps(),
+                final_factor,
+            },
+        }
     }
 
     /// The material smoothness prior's weight at `step`: λ ·
@@ -303,17 +322,10 @@ impl Trainer {
     /// planned last step on). λ throughout when f = 1.
     pub fn material_smoothness_weight(&self, step: u64) -> f64 {
         let loss = &self.config.loss;
-        // The learning rate's schedule with factor 1 through the warm-up
-        // and the prior's final factor at its end.
-        let anneal = LrSchedule {
-            warmup_steps: self.schedule.warmup_steps,
-            warmup_start_factor: 1.0,
-            decay: Decay::Cosine {
-                total_steps: self.planned_total_steps(),
-                final_factor: loss.material_smoothness_final,
-            },
-        };
-        loss.material_smoothness * anneal.factor(step)
+        loss.material_smoothness
+            * self
+                .prior_anneal(loss.material_smoothness_final)
+                .factor(step)
     }
 
     /// The smoothness pairs' offset at `step`: `loss.smoothness_radius`,
@@ -325,14 +337,7 @@ impl Trainer {
         if loss.smoothness_radius_start <= 0.0 {
             return loss.smoothness_radius;
         }
-        let anneal = LrSchedule {
-            warmup_steps: self.schedule.warmup_steps,
-            warmup_start_factor: 1.0,
-            decay: Decay::Cosine {
-                total_steps: self.planned_total_steps(),
-                final_factor: loss.smoothness_radius / loss.smoothness_radius_start,
-            },
-        };
+        let anneal = self.prior_anneal(loss.smoothness_radius / loss.smoothness_radius_start);
         loss.smoothness_radius_start * anneal.factor(step)
     }
 
@@ -611,11 +616,7 @@ impl Trainer {
         if !smooth {
             return (0.0, 0.0, binary);
         }
-        let r = self.smoothness_radius(step) as f32;
-        let offsets: Vec<[f32; 3]> = centres
-            .iter()
-            .map(|_| [0; 3].map(|_| rng.random_range(-r..=r)))
-            .collect();
+        let offsets = random_offsets(rng, centres.len(), self.smoothness_radius(step));
         // The second difference is zero on a circle only for x ± ε at the
         // same height above the surface: its offsets are projected onto the
         // tangent plane (of the rays' expected normals).
@@ -642,14 +643,8 @@ impl Trainer {
             let (near, far) = loss
                 .smoothness_factors
                 .split(&loss.wide_smoothness_parameters);
-            let wide_offsets: Option<Vec<[f32; 3]>> = (!loss.wide_smoothness_parameters.is_empty())
-                .then(|| {
-                    let r = loss.wide_smoothness_radius as f32;
-                    centres
-                        .iter()
-                        .map(|_| [0; 3].map(|_| rng.random_range(-r..=r)))
-                        .collect()
-                });
+            let wide_offsets = (!loss.wide_smoothness_parameters.is_empty())
+                .then(|| random_offsets(rng, centres.len(), loss.wide_smoothness_radius));
             let settings = |factors: [f64; PARAM_COUNT]| SmoothnessSettings {
                 weight: material_weight as f32,
                 factors: factors.map(|w| w as f32),
@@ -845,4 +840,13 @@ pub fn load_model(model: &mut Model, ck: &Checkpoint) -> anyhow::Result<()> {
         "{p}: the checkpoint holds non-finite parameters"
     );
     Ok(())
+}
+
+/// `n` offsets with every coordinate uniform in ±`radius` (the smoothness
+/// pairs' second points).
+fn random_offsets(rng: &mut Pcg64, n: usize, radius: f64) -> Vec<[f32; 3]> {
+    let r = radius as f32;
+    (0..n)
+        .map(|_| [0; 3].map(|_| rng.random_range(-r..=r)))
+        .collect()
 }
