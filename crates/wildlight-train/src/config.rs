@@ -148,6 +148,13 @@ pub struct LossConfig {
     /// λ = 0.05 or 0.1 (3,000 steps, seed 0) lost the metals: base colour
     /// 14.0 / 14.1 dB.
     pub smoothness_relative: RelativeDifference,
+    /// Saturation scale c of the material smoothness prior's differences
+    /// (`crate::smoothness`): each enters as c · ln(1 + δ/c), whose push
+    /// c / (c + δ) fades across a boundary between two materials, so that
+    /// a thin part (the terracotta foot between the brass ring and the
+    /// glaze) is not pulled towards its neighbours. 0 (the default) keeps
+    /// the L1 difference δ.
+    pub smoothness_saturation: f64,
     /// The pairs' offset at the first step (0, the default: always
     /// `smoothness_radius`). From the end of the warm-up the offset falls
     /// from this value to `smoothness_radius` along the learning rate's
@@ -361,6 +368,7 @@ impl Default for LossConfig {
             material_smoothness_final: 0.3,
             smoothness_factors: SmoothnessFactors::default(),
             smoothness_relative: RelativeDifference::Pair,
+            smoothness_saturation: 0.0,
             smoothness_radius_start: 0.0,
             wide_smoothness_radius: 0.0,
             wide_smoothness_parameters: Vec::new(),
@@ -858,6 +866,10 @@ impl TrainConfig {
             ("loss.material_smoothness", self.loss.material_smoothness),
             ("loss.smoothness_radius", self.loss.smoothness_radius),
             (
+                "loss.smoothness_saturation",
+                self.loss.smoothness_saturation,
+            ),
+            (
                 "loss.wide_smoothness_radius",
                 self.loss.wide_smoothness_radius,
             ),
@@ -1096,6 +1108,15 @@ mod tests {
             assert!(c.validate().unwrap_err().contains("optim.metallic_hold"));
         }
         c.optim.metallic_hold = 0.5;
+        for bad_scale in [-0.1, f64::INFINITY, f64::NAN] {
+            c.loss.smoothness_saturation = bad_scale;
+            assert!(
+                c.validate()
+                    .unwrap_err()
+                    .contains("loss.smoothness_saturation")
+            );
+        }
+        c.loss.smoothness_saturation = 0.1;
         assert!(c.validate().is_ok());
     }
 

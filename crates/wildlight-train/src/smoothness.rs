@@ -17,7 +17,12 @@
 //! (`loss.smoothness_factors`, 1 by default) weigh the parameters against
 //! each other. With `loss.smoothness_relative = "batch"` the relative
 //! difference divides by the mean of a + b over the whole batch instead of
-//! the pair's own ([`RelativeDifference`]). Only the material field
+//! the pair's own ([`RelativeDifference`]). With a saturation scale c > 0
+//! (`loss.smoothness_saturation`) each difference enters as
+//! ψ(δ) = c · ln(1 + δ/c) instead of δ: the same as L1 for differences well
+//! below c, with a push ψ'(δ) = c / (c + δ) that fades across a boundary
+//! between two materials (δ ≫ c), so that a thin part is not pulled
+//! towards the parts beside it. Only the material field
 //! receives the gradient (the points are held fixed). The prior is the
 //! project's addition: SPEC §4 has no such term. Its weight
 //! `loss.material_smoothness` defaults to 0.1; 0 turns it off.
@@ -94,6 +99,19 @@ pub struct SmoothnessSettings<T> {
     pub factors: [T; PARAM_COUNT],
     /// How δ is relative for base colour, dielectric and clearcoat.
     pub relative: RelativeDifference,
+    /// Saturation scale c of ψ(δ) = c · ln(1 + δ/c); 0 keeps δ (L1).
+    pub saturation: T,
+}
+
+/// ψ(δ) = c · ln(1 + δ/c) in f64, for c > 0.
+fn saturated_value(delta: f64, c: f64) -> f64 {
+    c * (delta / c).ln_1p()
+}
+
+/// ψ'(δ) = c / (c + δ) (1 for c = 0).
+#[inline]
+fn saturated_slope<T: Float>(delta: T, c: T) -> T {
+    if c > T::ZERO { c / (c + delta) } else { T::ONE }
 }
 
 impl<T: Float> SmoothnessSettings<T> {
@@ -103,6 +121,7 @@ impl<T: Float> SmoothnessSettings<T> {
             weight,
             factors: [T::ONE; PARAM_COUNT],
             relative: RelativeDifference::Pair,
+            saturation: T::ZERO,
         }
     }
 }
@@ -139,6 +158,8 @@ impl<T: Float + Default> MaterialSmoothness<T> {
         let (near, far) = out.split_at(m * k);
         let scale = settings.weight / of(m as f64);
         let factors = &settings.factors;
+        let c = settings.saturation;
+        let c64 = to_f64(c);
         self.d_out.clear();
         self.d_out.resize(2 * m * k, T::ZERO);
         let (d_near, d_far) = self.d_out.split_at_mut(m * k);
@@ -151,20 +172,31 @@ impl<T: Float + Default> MaterialSmoothness<T> {
                     let i = j % PARAM_COUNT;
                     let (delta, d_a, d_b) = pair_difference(i, *a, *b);
                     let w = factors[i];
-                    sum += to_f64(w * delta);
-                    *da = scale * w * d_a;
-                    *db = scale * w * d_b;
+                    sum += if c64 > 0.0 {
+                        to_f64(w) * saturated_value(to_f64(delta), c64)
+                    } else {
+                        to_f64(w * delta)
+                    };
+                    let slope = saturated_slope(delta, c);
+                    *da = scale * w * slope * d_a;
+                    *db = scale * w * slope * d_b;
                 }
                 sum
             }
             RelativeDifference::Batch => {
-                // Per parameter: D_i = Σ_j |a − b| and M_i = (1/m) Σ_j (a + b);
-                // L_i = D_i / (M_i + floor) for the flash-scaling ones (D_i
-                // otherwise), so ∂L_i/∂a_j = sign_j / s_i − D_i / (m s_i²).
+                // Per parameter: D_i = Σ_j ψ(|a − b|) and M_i = (1/m) Σ_j
+                // (a + b); L_i = D_i / (M_i + floor) for the flash-scaling
+                // ones (D_i otherwise), so ∂L_i/∂a_j = ψ'_j sign_j / s_i −
+                // D_i / (m s_i²).
                 let mut diff = [T::ZERO; PARAM_COUNT];
                 let mut mean = [T::ZERO; PARAM_COUNT];
                 for (j, (a, b)) in near.iter().zip(far).enumerate() {
-                    diff[j % PARAM_COUNT] += sign(*a - *b) * (*a - *b);
+                    let abs = sign(*a - *b) * (*a - *b);
+                    diff[j % PARAM_COUNT] += if c > T::ZERO {
+                        of::<T>(saturated_value(to_f64(abs), c64))
+                    } else {
+                        abs
+                    };
                     mean[j % PARAM_COUNT] += *a + *b;
                 }
                 let mf = of::<T>(m as f64);
@@ -186,7 +218,8 @@ impl<T: Float + Default> MaterialSmoothness<T> {
                     near.iter().zip(far).zip(d_near).zip(d_far).enumerate()
                 {
                     let i = j % PARAM_COUNT;
-                    let sign = sign(*a - *b);
+                    let d = *a - *b;
+                    let sign = sign(d) * saturated_slope(sign(d) * d, c);
                     let w = factors[i];
                     *da = scale * w * (sign / denom[i] - shared[i]);
                     *db = scale * w * (-sign / denom[i] - shared[i]);

@@ -649,6 +649,7 @@ impl Trainer {
                 weight: material_weight as f32,
                 factors: factors.map(|w| w as f32),
                 relative: loss.smoothness_relative,
+                saturation: loss.smoothness_saturation as f32,
             };
             let mut value = self.smoothness.forward_backward(
                 &self.model.material,

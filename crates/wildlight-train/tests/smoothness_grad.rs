@@ -53,6 +53,36 @@ fn batch_loss(model: &Model<f64>, grads: Option<&mut wildlight_fields::FieldGrad
     loss_with(settings, model, grads)
 }
 
+/// Saturation scale of the tests of ψ(δ) = c · ln(1 + δ/c).
+const SATURATION: f64 = 0.05;
+
+/// The same as `factored_loss` with saturated differences.
+fn saturated_loss(
+    model: &Model<f64>,
+    grads: Option<&mut wildlight_fields::FieldGrads<f64>>,
+) -> f64 {
+    let settings = SmoothnessSettings {
+        factors: FACTORS,
+        saturation: SATURATION,
+        ..SmoothnessSettings::uniform(WEIGHT)
+    };
+    loss_with(settings, model, grads)
+}
+
+/// The same as `batch_loss` with saturated differences.
+fn saturated_batch_loss(
+    model: &Model<f64>,
+    grads: Option<&mut wildlight_fields::FieldGrads<f64>>,
+) -> f64 {
+    let settings = SmoothnessSettings {
+        factors: FACTORS,
+        relative: RelativeDifference::Batch,
+        saturation: SATURATION,
+        ..SmoothnessSettings::uniform(WEIGHT)
+    };
+    loss_with(settings, model, grads)
+}
+
 /// Unequal factors, one of them 0.
 const FACTORS: [f64; 9] = [2.0, 2.0, 2.0, 3.0, 0.5, 0.0, 1.5, 1.0, 0.25];
 
@@ -62,6 +92,8 @@ fn smoothness_value_is_the_mean_l1_difference_of_theta() {
     let mut ctx = wildlight_fields::FieldContext::default();
     let (mut by_hand, mut factored_by_hand) = (0.0, 0.0);
     let (mut diff, mut sums) = ([0.0; 9], [0.0; 9]);
+    let (mut saturated_by_hand, mut saturated_diff) = (0.0, [0.0; 9]);
+    let psi = |d: f64| SATURATION * (1.0 + d / SATURATION).ln();
     for (c, e) in CENTRES.iter().zip(&OFFSETS) {
         let far = [c[0] + e[0], c[1] + e[1], c[2] + e[2]];
         model.material.forward(&[*c, far], &[], &mut ctx);
@@ -75,12 +107,15 @@ fn smoothness_value_is_the_mean_l1_difference_of_theta() {
             };
             by_hand += delta;
             factored_by_hand += FACTORS[i] * delta;
+            saturated_by_hand += FACTORS[i] * psi(delta);
             diff[i] += (x - y).abs();
+            saturated_diff[i] += psi((x - y).abs());
             sums[i] += x + y;
         }
     }
     by_hand /= CENTRES.len() as f64;
     factored_by_hand /= CENTRES.len() as f64;
+    saturated_by_hand /= CENTRES.len() as f64;
     let value = loss(&model, None) / WEIGHT;
     assert!(value > 1e-3, "Θ must differ across the pairs: {value}");
     assert!((value - by_hand).abs() < 1e-12, "{value} vs {by_hand}");
@@ -99,7 +134,30 @@ fn smoothness_value_is_the_mean_l1_difference_of_theta() {
         (batch - batch_by_hand).abs() < 1e-12,
         "{batch} vs {batch_by_hand}"
     );
+    // Saturated: each δ (pairwise) or |a − b| (batch) enters as ψ.
+    let saturated = saturated_loss(&model, None) / WEIGHT;
+    assert!(
+        (saturated - saturated_by_hand).abs() < 1e-12,
+        "{saturated} vs {saturated_by_hand}"
+    );
     let factored = factored_loss(&model, None) / WEIGHT;
+    assert!(
+        saturated < factored,
+        "ψ(δ) < δ for δ > 0: {saturated} vs {factored}"
+    );
+    let saturated_batch_by_hand = (0..9)
+        .map(|i| {
+            let relative = i <= 2 || i == 7 || i == 8;
+            let s = if relative { sums[i] / n + 0.01 } else { 1.0 };
+            FACTORS[i] * saturated_diff[i] / s
+        })
+        .sum::<f64>()
+        / n;
+    let saturated_batch = saturated_batch_loss(&model, None) / WEIGHT;
+    assert!(
+        (saturated_batch - saturated_batch_by_hand).abs() < 1e-12,
+        "{saturated_batch} vs {saturated_batch_by_hand}"
+    );
     assert!((factored - value).abs() > 1e-4, "the factors must matter");
     assert!(
         (factored - factored_by_hand).abs() < 1e-12,
@@ -140,4 +198,49 @@ fn smoothness_gradient_matches_finite_differences() {
     common::check_material_prior_gradient(loss);
     common::check_material_prior_gradient(factored_loss);
     common::check_material_prior_gradient(batch_loss);
+    common::check_material_prior_gradient(saturated_loss);
+    common::check_material_prior_gradient(saturated_batch_loss);
+}
+
+/// Across a large difference the saturated prior pushes less than L1, by
+/// ψ'(δ) = c / (c + δ); across a small one nearly as much.
+#[test]
+fn saturation_fades_the_push_across_large_differences() {
+    let model = tiny_material_model();
+    let (mut l1, mut sat) = (model.material.new_grads(), model.material.new_grads());
+    loss_with(SmoothnessSettings::uniform(WEIGHT), &model, Some(&mut l1));
+    let settings = SmoothnessSettings {
+        saturation: SATURATION,
+        ..SmoothnessSettings::uniform(WEIGHT)
+    };
+    loss_with(settings, &model, Some(&mut sat));
+    let norm = |g: &wildlight_fields::FieldGrads<f64>| {
+        g.grid
+            .iter()
+            .chain(&g.mlp)
+            .map(|v| v * v)
+            .sum::<f64>()
+            .sqrt()
+    };
+    let (n1, ns) = (norm(&l1), norm(&sat));
+    assert!(n1 > 0.0 && ns > 0.0, "{n1} {ns}");
+    assert!(
+        ns < 0.9 * n1,
+        "saturation must weaken the push: {ns} vs {n1}"
+    );
+    // A scale far above every difference is L1 again.
+    let mut wide = model.material.new_grads();
+    let settings = SmoothnessSettings {
+        saturation: 1e6,
+        ..SmoothnessSettings::uniform(WEIGHT)
+    };
+    loss_with(settings, &model, Some(&mut wide));
+    let diff = wide
+        .grid
+        .iter()
+        .chain(&wide.mlp)
+        .zip(l1.grid.iter().chain(&l1.mlp))
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f64, f64::max);
+    assert!(diff < 1e-6 * n1, "{diff}");
 }
