@@ -155,6 +155,9 @@ pub struct LossConfig {
     /// glaze) is not pulled towards its neighbours. 0 (the default) keeps
     /// the L1 difference δ.
     pub smoothness_saturation: f64,
+    /// The parameters whose differences `smoothness_saturation` saturates,
+    /// by their names in `[loss.smoothness_factors]`; all seven by default.
+    pub smoothness_saturated_parameters: Vec<String>,
     /// The pairs' offset at the first step (0, the default: always
     /// `smoothness_radius`). From the end of the warm-up the offset falls
     /// from this value to `smoothness_radius` along the learning rate's
@@ -277,6 +280,27 @@ impl Default for SmoothnessFactors {
 }
 
 impl SmoothnessFactors {
+    /// The names of the factors, as in `[loss.smoothness_factors]`.
+    pub const NAMES: [&'static str; 7] = [
+        "base_color",
+        "roughness",
+        "clearcoat_gloss",
+        "subsurface",
+        "metallic",
+        "dielectric",
+        "clearcoat",
+    ];
+
+    /// `value` at the Θ indices of the parameters called `names`, 0
+    /// elsewhere (unknown names are left out; validation refuses them).
+    pub fn scales_of(names: &[String], value: f64) -> [f64; PARAM_COUNT] {
+        let mut out = [0.0; PARAM_COUNT];
+        for range in names.iter().filter_map(|n| Self::indices(n)) {
+            out[range].fill(value);
+        }
+        out
+    }
+
     /// The factors in Θ's order (`wildlight_material::PARAM_NAMES`).
     pub fn per_parameter(&self) -> [f64; PARAM_COUNT] {
         let mut w = [0.0; PARAM_COUNT];
@@ -369,6 +393,10 @@ impl Default for LossConfig {
             smoothness_factors: SmoothnessFactors::default(),
             smoothness_relative: RelativeDifference::Pair,
             smoothness_saturation: 0.0,
+            smoothness_saturated_parameters: SmoothnessFactors::NAMES
+                .iter()
+                .map(|n| n.to_string())
+                .collect(),
             smoothness_radius_start: 0.0,
             wide_smoothness_radius: 0.0,
             wide_smoothness_parameters: Vec::new(),
@@ -897,10 +925,22 @@ impl TrainConfig {
                 return bad(name, "must be finite and ≥ 0");
             }
         }
-        for name in &self.loss.wide_smoothness_parameters {
-            if SmoothnessFactors::indices(name).is_none() {
+        for (setting, names) in [
+            (
+                "loss.wide_smoothness_parameters",
+                &self.loss.wide_smoothness_parameters,
+            ),
+            (
+                "loss.smoothness_saturated_parameters",
+                &self.loss.smoothness_saturated_parameters,
+            ),
+        ] {
+            if let Some(name) = names
+                .iter()
+                .find(|n| SmoothnessFactors::indices(n).is_none())
+            {
                 return bad(
-                    "loss.wide_smoothness_parameters",
+                    setting,
                     &format!(
                         "unknown parameter {name:?} (use the names of [loss.smoothness_factors])"
                     ),
@@ -1190,6 +1230,41 @@ mod tests {
             bad.validate()
                 .unwrap_err()
                 .contains("loss.wide_smoothness_radius")
+        );
+    }
+
+    /// The saturation scale reaches every parameter by default and only the
+    /// named ones otherwise; an unknown name is refused by name.
+    #[test]
+    fn saturated_parameters_by_name() {
+        let d = TrainConfig::default();
+        let all = SmoothnessFactors::scales_of(&d.loss.smoothness_saturated_parameters, 0.1);
+        assert_eq!(all, [0.1; PARAM_COUNT]);
+        let c = TrainConfig::from_toml(
+            "[loss]\nsmoothness_saturation = 0.05\nsmoothness_saturated_parameters = [\"roughness\", \"metallic\"]\n",
+        )
+        .unwrap();
+        assert!(c.validate().is_ok());
+        let scales = SmoothnessFactors::scales_of(
+            &c.loss.smoothness_saturated_parameters,
+            c.loss.smoothness_saturation,
+        );
+        for (i, v) in scales.iter().enumerate() {
+            let want = if i == ROUGHNESS || i == METALLIC {
+                0.05
+            } else {
+                0.0
+            };
+            assert_eq!(*v, want, "{i}");
+        }
+        let mut bad = c.clone();
+        bad.loss
+            .smoothness_saturated_parameters
+            .push("gloss".into());
+        let err = bad.validate().unwrap_err();
+        assert!(
+            err.contains("loss.smoothness_saturated_parameters") && err.contains("\"gloss\""),
+            "{err}"
         );
     }
 

@@ -18,7 +18,8 @@
 //! each other. With `loss.smoothness_relative = "batch"` the relative
 //! difference divides by the mean of a + b over the whole batch instead of
 //! the pair's own ([`RelativeDifference`]). With a saturation scale c > 0
-//! (`loss.smoothness_saturation`) each difference enters as
+//! (`loss.smoothness_saturation`, for the parameters named in
+//! `loss.smoothness_saturated_parameters`) each difference enters as
 //! ψ(δ) = c · ln(1 + δ/c) instead of δ: the same as L1 for differences well
 //! below c, with a push ψ'(δ) = c / (c + δ) that fades across a boundary
 //! between two materials (δ ≫ c), so that a thin part is not pulled
@@ -99,8 +100,9 @@ pub struct SmoothnessSettings<T> {
     pub factors: [T; PARAM_COUNT],
     /// How δ is relative for base colour, dielectric and clearcoat.
     pub relative: RelativeDifference,
-    /// Saturation scale c of ψ(δ) = c · ln(1 + δ/c); 0 keeps δ (L1).
-    pub saturation: T,
+    /// Per parameter, in Θ's order, the saturation scale c of
+    /// ψ(δ) = c · ln(1 + δ/c); 0 keeps δ (L1).
+    pub saturation: [T; PARAM_COUNT],
 }
 
 /// ψ(δ) = c · ln(1 + δ/c) in f64, for c > 0.
@@ -121,7 +123,7 @@ impl<T: Float> SmoothnessSettings<T> {
             weight,
             factors: [T::ONE; PARAM_COUNT],
             relative: RelativeDifference::Pair,
-            saturation: T::ZERO,
+            saturation: [T::ZERO; PARAM_COUNT],
         }
     }
 }
@@ -158,8 +160,7 @@ impl<T: Float + Default> MaterialSmoothness<T> {
         let (near, far) = out.split_at(m * k);
         let scale = settings.weight / of(m as f64);
         let factors = &settings.factors;
-        let c = settings.saturation;
-        let c64 = to_f64(c);
+        let saturation = &settings.saturation;
         self.d_out.clear();
         self.d_out.resize(2 * m * k, T::ZERO);
         let (d_near, d_far) = self.d_out.split_at_mut(m * k);
@@ -171,9 +172,9 @@ impl<T: Float + Default> MaterialSmoothness<T> {
                 {
                     let i = j % PARAM_COUNT;
                     let (delta, d_a, d_b) = pair_difference(i, *a, *b);
-                    let w = factors[i];
-                    sum += if c64 > 0.0 {
-                        to_f64(w) * saturated_value(to_f64(delta), c64)
+                    let (w, c) = (factors[i], saturation[i]);
+                    sum += if c > T::ZERO {
+                        to_f64(w) * saturated_value(to_f64(delta), to_f64(c))
                     } else {
                         to_f64(w * delta)
                     };
@@ -192,8 +193,9 @@ impl<T: Float + Default> MaterialSmoothness<T> {
                 let mut mean = [T::ZERO; PARAM_COUNT];
                 for (j, (a, b)) in near.iter().zip(far).enumerate() {
                     let abs = sign(*a - *b) * (*a - *b);
+                    let c = saturation[j % PARAM_COUNT];
                     diff[j % PARAM_COUNT] += if c > T::ZERO {
-                        of::<T>(saturated_value(to_f64(abs), c64))
+                        of::<T>(saturated_value(to_f64(abs), to_f64(c)))
                     } else {
                         abs
                     };
@@ -219,7 +221,7 @@ impl<T: Float + Default> MaterialSmoothness<T> {
                 {
                     let i = j % PARAM_COUNT;
                     let d = *a - *b;
-                    let sign = sign(d) * saturated_slope(sign(d) * d, c);
+                    let sign = sign(d) * saturated_slope(sign(d) * d, saturation[i]);
                     let w = factors[i];
                     *da = scale * w * (sign / denom[i] - shared[i]);
                     *db = scale * w * (-sign / denom[i] - shared[i]);

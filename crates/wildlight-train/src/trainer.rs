@@ -4,7 +4,7 @@
 //! step's random numbers come from (seed, step) alone, so a resumed run
 //! continues exactly.
 
-use crate::config::{NormalDifference, TrainConfig};
+use crate::config::{NormalDifference, SmoothnessFactors, TrainConfig};
 use crate::float::dot3;
 use crate::loss::{add_colour_l2, colour_l1, counted_l1, mask_bce, psnr};
 use crate::metallic_prior::BinaryMetallic;
@@ -649,7 +649,11 @@ impl Trainer {
                 weight: material_weight as f32,
                 factors: factors.map(|w| w as f32),
                 relative: loss.smoothness_relative,
-                saturation: loss.smoothness_saturation as f32,
+                saturation: SmoothnessFactors::scales_of(
+                    &loss.smoothness_saturated_parameters,
+                    loss.smoothness_saturation,
+                )
+                .map(|c| c as f32),
             };
             let mut value = self.smoothness.forward_backward(
                 &self.model.material,

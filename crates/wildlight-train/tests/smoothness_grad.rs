@@ -63,7 +63,7 @@ fn saturated_loss(
 ) -> f64 {
     let settings = SmoothnessSettings {
         factors: FACTORS,
-        saturation: SATURATION,
+        saturation: [SATURATION; 9],
         ..SmoothnessSettings::uniform(WEIGHT)
     };
     loss_with(settings, model, grads)
@@ -77,7 +77,22 @@ fn saturated_batch_loss(
     let settings = SmoothnessSettings {
         factors: FACTORS,
         relative: RelativeDifference::Batch,
-        saturation: SATURATION,
+        saturation: [SATURATION; 9],
+        ..SmoothnessSettings::uniform(WEIGHT)
+    };
+    loss_with(settings, model, grads)
+}
+
+/// The same as `factored_loss` with metallic's differences alone saturated.
+fn metallic_saturated_loss(
+    model: &Model<f64>,
+    grads: Option<&mut wildlight_fields::FieldGrads<f64>>,
+) -> f64 {
+    let mut saturation = [0.0; 9];
+    saturation[wildlight_material::METALLIC] = SATURATION;
+    let settings = SmoothnessSettings {
+        factors: FACTORS,
+        saturation,
         ..SmoothnessSettings::uniform(WEIGHT)
     };
     loss_with(settings, model, grads)
@@ -93,6 +108,7 @@ fn smoothness_value_is_the_mean_l1_difference_of_theta() {
     let (mut by_hand, mut factored_by_hand) = (0.0, 0.0);
     let (mut diff, mut sums) = ([0.0; 9], [0.0; 9]);
     let (mut saturated_by_hand, mut saturated_diff) = (0.0, [0.0; 9]);
+    let mut metallic_saturated_by_hand = 0.0;
     let psi = |d: f64| SATURATION * (1.0 + d / SATURATION).ln();
     for (c, e) in CENTRES.iter().zip(&OFFSETS) {
         let far = [c[0] + e[0], c[1] + e[1], c[2] + e[2]];
@@ -108,6 +124,7 @@ fn smoothness_value_is_the_mean_l1_difference_of_theta() {
             by_hand += delta;
             factored_by_hand += FACTORS[i] * delta;
             saturated_by_hand += FACTORS[i] * psi(delta);
+            metallic_saturated_by_hand += FACTORS[i] * if i == 6 { psi(delta) } else { delta };
             diff[i] += (x - y).abs();
             saturated_diff[i] += psi((x - y).abs());
             sums[i] += x + y;
@@ -116,6 +133,7 @@ fn smoothness_value_is_the_mean_l1_difference_of_theta() {
     by_hand /= CENTRES.len() as f64;
     factored_by_hand /= CENTRES.len() as f64;
     saturated_by_hand /= CENTRES.len() as f64;
+    metallic_saturated_by_hand /= CENTRES.len() as f64;
     let value = loss(&model, None) / WEIGHT;
     assert!(value > 1e-3, "Θ must differ across the pairs: {value}");
     assert!((value - by_hand).abs() < 1e-12, "{value} vs {by_hand}");
@@ -140,7 +158,16 @@ fn smoothness_value_is_the_mean_l1_difference_of_theta() {
         (saturated - saturated_by_hand).abs() < 1e-12,
         "{saturated} vs {saturated_by_hand}"
     );
+    let metallic_saturated = metallic_saturated_loss(&model, None) / WEIGHT;
+    assert!(
+        (metallic_saturated - metallic_saturated_by_hand).abs() < 1e-12,
+        "{metallic_saturated} vs {metallic_saturated_by_hand}"
+    );
     let factored = factored_loss(&model, None) / WEIGHT;
+    assert!(
+        saturated < metallic_saturated && metallic_saturated < factored,
+        "{saturated} < {metallic_saturated} < {factored}"
+    );
     assert!(
         saturated < factored,
         "ψ(δ) < δ for δ > 0: {saturated} vs {factored}"
@@ -200,6 +227,7 @@ fn smoothness_gradient_matches_finite_differences() {
     common::check_material_prior_gradient(batch_loss);
     common::check_material_prior_gradient(saturated_loss);
     common::check_material_prior_gradient(saturated_batch_loss);
+    common::check_material_prior_gradient(metallic_saturated_loss);
 }
 
 /// Across a large difference the saturated prior pushes less than L1, by
@@ -210,7 +238,7 @@ fn saturation_fades_the_push_across_large_differences() {
     let (mut l1, mut sat) = (model.material.new_grads(), model.material.new_grads());
     loss_with(SmoothnessSettings::uniform(WEIGHT), &model, Some(&mut l1));
     let settings = SmoothnessSettings {
-        saturation: SATURATION,
+        saturation: [SATURATION; 9],
         ..SmoothnessSettings::uniform(WEIGHT)
     };
     loss_with(settings, &model, Some(&mut sat));
@@ -231,7 +259,7 @@ fn saturation_fades_the_push_across_large_differences() {
     // A scale far above every difference is L1 again.
     let mut wide = model.material.new_grads();
     let settings = SmoothnessSettings {
-        saturation: 1e6,
+        saturation: [1e6; 9],
         ..SmoothnessSettings::uniform(WEIGHT)
     };
     loss_with(settings, &model, Some(&mut wide));
