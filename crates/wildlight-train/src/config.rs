@@ -155,6 +155,10 @@ pub struct LossConfig {
     /// glaze) is not pulled towards its neighbours. 0 (the default) keeps
     /// the L1 difference δ.
     pub smoothness_saturation: f64,
+    /// The share of the planned steps before which the smoothness prior
+    /// stays L1 (0, the default: saturated from the first step), so that
+    /// the parts can separate under the plain prior first.
+    pub smoothness_saturation_start: f64,
     /// The parameters whose differences `smoothness_saturation` saturates,
     /// by their names in `[loss.smoothness_factors]`; all seven by default.
     pub smoothness_saturated_parameters: Vec<String>,
@@ -393,6 +397,7 @@ impl Default for LossConfig {
             smoothness_factors: SmoothnessFactors::default(),
             smoothness_relative: RelativeDifference::Pair,
             smoothness_saturation: 0.0,
+            smoothness_saturation_start: 0.0,
             smoothness_saturated_parameters: SmoothnessFactors::NAMES
                 .iter()
                 .map(|n| n.to_string())
@@ -867,6 +872,10 @@ impl TrainConfig {
                 self.loss.binary_metallic_ceiling,
             ),
             ("optim.metallic_hold", self.optim.metallic_hold),
+            (
+                "loss.smoothness_saturation_start",
+                self.loss.smoothness_saturation_start,
+            ),
         ] {
             if v > 1.0 {
                 return bad(name, "must be a fraction of the run, at most 1");
@@ -896,6 +905,10 @@ impl TrainConfig {
             (
                 "loss.smoothness_saturation",
                 self.loss.smoothness_saturation,
+            ),
+            (
+                "loss.smoothness_saturation_start",
+                self.loss.smoothness_saturation_start,
             ),
             (
                 "loss.wide_smoothness_radius",
@@ -1157,6 +1170,15 @@ mod tests {
             );
         }
         c.loss.smoothness_saturation = 0.1;
+        for bad_share in [-0.1, 1.1] {
+            c.loss.smoothness_saturation_start = bad_share;
+            assert!(
+                c.validate()
+                    .unwrap_err()
+                    .contains("loss.smoothness_saturation_start")
+            );
+        }
+        c.loss.smoothness_saturation_start = 0.5;
         assert!(c.validate().is_ok());
     }
 

@@ -301,6 +301,18 @@ impl Trainer {
         self.share_of_planned_steps(self.config.loss.binary_metallic_start)
     }
 
+    /// The material smoothness prior's saturation scale at `step`:
+    /// `loss.smoothness_saturation` from `loss.smoothness_saturation_start`
+    /// × the planned steps (rounded up) on, 0 (plain L1) before.
+    pub fn smoothness_saturation(&self, step: u64) -> f64 {
+        let loss = &self.config.loss;
+        if step >= self.share_of_planned_steps(loss.smoothness_saturation_start) {
+            loss.smoothness_saturation
+        } else {
+            0.0
+        }
+    }
+
     /// The learning rate's schedule with factor 1 through the warm-up,
     /// falling along its cosine to `final_factor` at the planned last step:
     /// the annealing of the priors' weight and offset.
@@ -635,6 +647,7 @@ impl Trainer {
             &offsets
         };
         let material_weight = self.material_smoothness_weight(step);
+        let saturation = self.smoothness_saturation(step);
         let loss = &self.config.loss;
         let material = if loss.material_smoothness > 0.0 {
             // The parameters of `wide_smoothness_parameters` are compared
@@ -651,7 +664,7 @@ impl Trainer {
                 relative: loss.smoothness_relative,
                 saturation: SmoothnessFactors::scales_of(
                     &loss.smoothness_saturated_parameters,
-                    loss.smoothness_saturation,
+                    saturation,
                 )
                 .map(|c| c as f32),
             };

@@ -521,6 +521,30 @@ fn the_material_smoothness_weight_anneals_with_the_decay() {
     );
 }
 
+/// The smoothness prior's saturation scale is 0 (plain L1) before its
+/// share of the planned steps and `loss.smoothness_saturation` from there
+/// on; without a start share it holds from the first step.
+#[test]
+fn the_smoothness_saturation_starts_at_its_share_of_the_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let dataset = capture(dir.path(), 4, 16);
+    let mut config = small_config(40);
+    config.loss.smoothness_saturation = 0.05;
+    config.loss.smoothness_saturation_start = 0.25;
+    let trainer = Trainer::new(config.clone(), TrainingRays::new(&dataset)).unwrap();
+    let c = |s| trainer.smoothness_saturation(s);
+    assert_eq!(
+        (c(0), c(9), c(10), c(39), c(100)),
+        (0.0, 0.0, 0.05, 0.05, 0.05)
+    );
+    config.loss.smoothness_saturation_start = 0.0;
+    let from_start = Trainer::new(config.clone(), TrainingRays::new(&dataset)).unwrap();
+    assert_eq!(from_start.smoothness_saturation(0), 0.05);
+    config.loss.smoothness_saturation = 0.0;
+    let off = Trainer::new(config, TrainingRays::new(&dataset)).unwrap();
+    assert_eq!(off.smoothness_saturation(20), 0.0);
+}
+
 /// The squared colour term starts at its fraction of the planned steps.
 #[test]
 fn the_l2_colour_term_starts_at_its_fraction_of_the_run() {
