@@ -647,8 +647,12 @@ impl Trainer {
             &offsets
         };
         let material_weight = self.material_smoothness_weight(step);
-        let saturation = self.smoothness_saturation(step);
         let loss = &self.config.loss;
+        let saturation = SmoothnessFactors::scales_of(
+            &loss.smoothness_saturated_parameters,
+            self.smoothness_saturation(step),
+        )
+        .map(|c| c as f32);
         let material = if loss.material_smoothness > 0.0 {
             // The parameters of `wide_smoothness_parameters` are compared
             // at the wide offsets, drawn (after the others) only when there
@@ -662,11 +666,7 @@ impl Trainer {
                 weight: material_weight as f32,
                 factors: factors.map(|w| w as f32),
                 relative: loss.smoothness_relative,
-                saturation: SmoothnessFactors::scales_of(
-                    &loss.smoothness_saturated_parameters,
-                    saturation,
-                )
-                .map(|c| c as f32),
+                saturation,
             };
             let mut value = self.smoothness.forward_backward(
                 &self.model.material,
