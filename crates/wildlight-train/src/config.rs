@@ -212,6 +212,18 @@ pub struct LossConfig {
     /// 26.95 / 28.96 and 26.90 / 28.80 dB, mesh 0.00183 against 0.00172 /
     /// 0.00174 / 0.00173: the default is the second difference at 2.
     pub normal_smoothness: f64,
+    /// Largest offset of the normal prior's pairs, per axis (normalized
+    /// units; 0, the default: the material prior's `smoothness_radius`).
+    /// The normal prior then compares the same random offsets scaled to
+    /// this reach, so the material prior can reach across parts while the
+    /// normals are compared at a shorter distance, where a crease is not
+    /// averaged away.
+    pub normal_smoothness_radius: f64,
+    /// The normal prior's weight at the last step, as a factor of
+    /// `normal_smoothness` (1, the default, keeps it constant); it falls
+    /// along the learning rate's cosine as `material_smoothness_final`
+    /// does.
+    pub normal_smoothness_final: f64,
     /// Which difference of the normals the normal prior penalises.
     pub normal_difference: NormalDifference,
     /// Weight λ of the binary-metallic prior (`crate::metallic_prior`; the
@@ -415,6 +427,8 @@ impl Default for LossConfig {
             wide_smoothness_radius: 0.0,
             wide_smoothness_parameters: Vec::new(),
             normal_smoothness: 2.0,
+            normal_smoothness_radius: 0.0,
+            normal_smoothness_final: 1.0,
             normal_difference: NormalDifference::Second,
             binary_metallic: 0.0,
             binary_metallic_start: 0.0,
@@ -932,6 +946,14 @@ impl TrainConfig {
                 self.loss.material_smoothness_final,
             ),
             ("loss.normal_smoothness", self.loss.normal_smoothness),
+            (
+                "loss.normal_smoothness_radius",
+                self.loss.normal_smoothness_radius,
+            ),
+            (
+                "loss.normal_smoothness_final",
+                self.loss.normal_smoothness_final,
+            ),
             ("loss.binary_metallic", self.loss.binary_metallic),
             (
                 "loss.binary_metallic_ceiling",

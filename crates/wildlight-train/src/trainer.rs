@@ -340,6 +340,14 @@ impl Trainer {
                 .factor(step)
     }
 
+    /// The normal smoothness prior's weight at `step`: as
+    /// [`Self::material_smoothness_weight`], with `loss.normal_smoothness`
+    /// and `loss.normal_smoothness_final`.
+    pub fn normal_smoothness_weight(&self, step: u64) -> f64 {
+        let loss = &self.config.loss;
+        loss.normal_smoothness * self.prior_anneal(loss.normal_smoothness_final).factor(step)
+    }
+
     /// The smoothness pairs' offset at `step`: `loss.smoothness_radius`,
     /// or, with `loss.smoothness_radius_start` set, that offset through the
     /// warm-up falling along the learning rate's cosine to
@@ -533,7 +541,7 @@ impl Trainer {
             + cfg.loss.mask * mask
             + cfg.loss.eikonal * eikonal
             + self.material_smoothness_weight(step) * smoothness
-            + cfg.loss.normal_smoothness * normal_smoothness
+            + self.normal_smoothness_weight(step) * normal_smoothness
             + cfg.loss.binary_metallic * binary_metallic
             + cfg.loss.visual_hull * visual_hull;
         let lr_factor = self.schedule.factor(step) * self.lr_scale;
@@ -628,21 +636,30 @@ impl Trainer {
         if !smooth {
             return (0.0, 0.0, binary);
         }
-        let offsets = random_offsets(rng, centres.len(), self.smoothness_radius(step));
-        // The second difference is zero on a circle only for x ± ε at the
-        // same height above the surface: its offsets are projected onto the
-        // tangent plane (of the rays' expected normals).
-        let tangent: Vec<[f32; 3]>;
-        let normal_offsets = if loss.normal_difference == NormalDifference::Second {
-            tangent = offsets
+        let radius = self.smoothness_radius(step);
+        let offsets = random_offsets(rng, centres.len(), radius);
+        // The normal prior's pairs are the same offsets scaled to its own
+        // reach (`loss.normal_smoothness_radius`, when set). The second
+        // difference is zero on a circle only for x ± ε at the same height
+        // above the surface: its offsets are projected onto the tangent
+        // plane (of the rays' expected normals).
+        let scale = if loss.normal_smoothness_radius > 0.0 {
+            (loss.normal_smoothness_radius / radius) as f32
+        } else {
+            1.0
+        };
+        let second = loss.normal_difference == NormalDifference::Second;
+        let reshaped: Vec<[f32; 3]>;
+        let normal_offsets = if second || scale != 1.0 {
+            reshaped = offsets
                 .iter()
                 .zip(&normals)
                 .map(|(e, n)| {
-                    let en = dot3(*e, *n);
-                    [0, 1, 2].map(|a| e[a] - en * n[a])
+                    let en = if second { dot3(*e, *n) } else { 0.0 };
+                    [0, 1, 2].map(|a| (e[a] - en * n[a]) * scale)
                 })
                 .collect();
-            &tangent
+            &reshaped
         } else {
             &offsets
         };
@@ -688,6 +705,8 @@ impl Trainer {
         } else {
             0.0
         };
+        let normal_weight = self.normal_smoothness_weight(step);
+        let loss = &self.config.loss;
         let normal = if loss.normal_smoothness > 0.0 {
             self.normal_smoothness.forward_backward(
                 &self.model.sdf,
@@ -695,7 +714,7 @@ impl Trainer {
                 normal_offsets,
                 loss.normal_difference,
                 fd_step,
-                loss.normal_smoothness as f32,
+                normal_weight as f32,
                 &mut self.grads.sdf,
             )
         } else {
