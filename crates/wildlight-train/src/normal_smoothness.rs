@@ -39,6 +39,29 @@ use crate::float::{Float, dot3, of, sqrt, to_f64, unit3, unit3_backward};
 use crate::smoothness::pair_points;
 use wildlight_fields::{FdScheme, FieldGrads, NormalContext, SdfField};
 
+/// The offsets ε of the normal prior's pairs: the material prior's offsets
+/// scaled by `scale` (`loss.normal_smoothness_radius` over the material
+/// pairs' reach) and, for the second difference, projected onto the
+/// tangent plane of each point's normal, since n(x + ε) + n(x − ε) − 2 n(x)
+/// is zero on a circle only for x ± ε at the same height above the surface.
+pub fn pair_offsets(
+    offsets: &[[f32; 3]],
+    normals: &[[f32; 3]],
+    difference: NormalDifference,
+    scale: f32,
+) -> Vec<[f32; 3]> {
+    assert_eq!(offsets.len(), normals.len(), "one normal per offset");
+    let second = difference == NormalDifference::Second;
+    offsets
+        .iter()
+        .zip(normals)
+        .map(|(e, n)| {
+            let en = if second { dot3(*e, *n) } else { 0.0 };
+            [0, 1, 2].map(|a| (e[a] - en * n[a]) * scale)
+        })
+        .collect()
+}
+
 /// η of the pseudo-Huber penalty: differences of normals below this are
 /// penalised quadratically.
 pub const HUBER_ETA: f64 = 0.01;

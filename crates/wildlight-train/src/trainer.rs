@@ -4,12 +4,11 @@
 //! step's random numbers come from (seed, step) alone, so a resumed run
 //! continues exactly.
 
-use crate::config::{NormalDifference, SmoothnessFactors, TrainConfig};
-use crate::float::dot3;
+use crate::config::{SmoothnessFactors, TrainConfig};
 use crate::loss::{add_colour_l2, colour_l1, counted_l1, mask_bce, psnr};
 use crate::metallic_prior::BinaryMetallic;
 use crate::model::{Model, ModelGrads};
-use crate::normal_smoothness::NormalSmoothness;
+use crate::normal_smoothness::{self, NormalSmoothness};
 use crate::pipeline::{PassSettings, Pipeline, RayInputs, eval_sdf};
 use crate::rays::{RayBatch, RayShares, TrainingRays};
 use crate::smoothness::{MaterialSmoothness, SmoothnessSettings};
@@ -638,31 +637,15 @@ impl Trainer {
         }
         let radius = self.smoothness_radius(step);
         let offsets = random_offsets(rng, centres.len(), radius);
-        // The normal prior's pairs are the same offsets scaled to its own
-        // reach (`loss.normal_smoothness_radius`, when set). The second
-        // difference is zero on a circle only for x ± ε at the same height
-        // above the surface: its offsets are projected onto the tangent
-        // plane (of the rays' expected normals).
+        // The normal prior's pairs are the same offsets, scaled to its own
+        // reach (`loss.normal_smoothness_radius`, when set).
         let scale = if loss.normal_smoothness_radius > 0.0 {
             (loss.normal_smoothness_radius / radius) as f32
         } else {
             1.0
         };
-        let second = loss.normal_difference == NormalDifference::Second;
-        let reshaped: Vec<[f32; 3]>;
-        let normal_offsets = if second || scale != 1.0 {
-            reshaped = offsets
-                .iter()
-                .zip(&normals)
-                .map(|(e, n)| {
-                    let en = if second { dot3(*e, *n) } else { 0.0 };
-                    [0, 1, 2].map(|a| (e[a] - en * n[a]) * scale)
-                })
-                .collect();
-            &reshaped
-        } else {
-            &offsets
-        };
+        let normal_offsets =
+            normal_smoothness::pair_offsets(&offsets, &normals, loss.normal_difference, scale);
         let material_weight = self.material_smoothness_weight(step);
         let loss = &self.config.loss;
         let saturation = SmoothnessFactors::scales_of(
@@ -711,7 +694,7 @@ impl Trainer {
             self.normal_smoothness.forward_backward(
                 &self.model.sdf,
                 &centres,
-                normal_offsets,
+                &normal_offsets,
                 loss.normal_difference,
                 fd_step,
                 normal_weight as f32,

@@ -1,7 +1,8 @@
 //! The normal smoothness prior, with the first and the second difference of
 //! the normals: its value against a hand computation from the SDF's
 //! finite-difference normals, its parameter gradient against central
-//! finite differences in f64, and what each difference costs on a sphere.
+//! finite differences in f64, what each difference costs on a sphere, and
+//! the offsets of its pairs.
 
 mod common;
 
@@ -9,7 +10,7 @@ use wildlight_fields::{FdScheme, NormalContext};
 use wildlight_train::config::NormalDifference;
 use wildlight_train::model::Model;
 use wildlight_train::normal_smoothness::{
-    HUBER_ETA, NormalSmoothness, pseudo_huber, second_difference,
+    HUBER_ETA, NormalSmoothness, pair_offsets, pseudo_huber, second_difference,
 };
 
 fn tiny_sdf_model() -> Model<f64> {
@@ -226,4 +227,29 @@ fn second_difference_backward_matches_finite_differences() {
             );
         }
     }
+}
+
+/// The pairs' offsets: the material prior's offsets times the scale, and,
+/// for the second difference, without their part along the normal.
+#[test]
+fn the_pairs_offsets_are_scaled_and_tangent_for_the_second_difference() {
+    let offsets = [[0.01f32, -0.02, 0.015], [0.0, 0.0, 0.02]];
+    let s = 1.0 / 3f32.sqrt();
+    let normals = [[0.0f32, 0.0, 1.0], [s, s, s]];
+    let first = pair_offsets(&offsets, &normals, NormalDifference::First, 0.5);
+    assert_eq!(first, vec![[0.005, -0.01, 0.0075], [0.0, 0.0, 0.01]]);
+    let second = pair_offsets(&offsets, &normals, NormalDifference::Second, 0.5);
+    assert_eq!(second[0], [0.005, -0.01, 0.0]);
+    // (0, 0, 0.02) less its part along n: 0.02 · (−1/3, −1/3, 2/3), halved
+    let expected = [-0.02 / 6.0, -0.02 / 6.0, 0.02 / 3.0];
+    for a in 0..3 {
+        assert!((second[1][a] - expected[a]).abs() < 1e-8, "{:?}", second[1]);
+    }
+    let along: f32 = (0..3).map(|a| second[1][a] * normals[1][a]).sum();
+    assert!(along.abs() < 1e-9);
+    // scale 1 leaves the first difference's offsets as they are
+    assert_eq!(
+        pair_offsets(&offsets, &normals, NormalDifference::First, 1.0),
+        offsets.to_vec()
+    );
 }

@@ -521,6 +521,31 @@ fn the_material_smoothness_weight_anneals_with_the_decay() {
     );
 }
 
+/// The normal prior's weight anneals as the material prior's, with its own
+/// final factor, and stays constant by default.
+#[test]
+fn the_normal_smoothness_weight_anneals_with_its_own_final_factor() {
+    let dir = tempfile::tempdir().unwrap();
+    let dataset = capture(dir.path(), 4, 16);
+    let mut config = small_config(110);
+    config.loss.normal_smoothness = 2.0;
+    let constant = Trainer::new(config.clone(), TrainingRays::new(&dataset)).unwrap();
+    assert!(
+        [0, 60, 110]
+            .iter()
+            .all(|&s| constant.normal_smoothness_weight(s) == 2.0)
+    );
+    config.loss.normal_smoothness_final = 0.1;
+    config.loss.material_smoothness_final = 1.0;
+    let trainer = Trainer::new(config, TrainingRays::new(&dataset)).unwrap();
+    // warm-up 10 steps, decay over the 100 after it
+    let w = |s| trainer.normal_smoothness_weight(s);
+    assert_eq!((w(0), w(10)), (2.0, 2.0));
+    assert!((w(60) - 2.0 * (0.1 + 0.9 * 0.5)).abs() < 1e-12, "{}", w(60));
+    assert!((w(110) - 0.2).abs() < 1e-12, "{}", w(110));
+    assert_eq!(trainer.material_smoothness_weight(110), 0.1);
+}
+
 /// The smoothness prior's saturation scale is 0 (plain L1) before its
 /// share of the planned steps and `loss.smoothness_saturation` from there
 /// on; without a start share it holds from the first step.
