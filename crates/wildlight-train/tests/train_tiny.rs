@@ -522,13 +522,14 @@ fn the_material_smoothness_weight_anneals_with_the_decay() {
 }
 
 /// The normal prior's weight anneals as the material prior's, with its own
-/// final factor, and stays constant by default.
+/// final factor, and stays constant with a final factor of 1.
 #[test]
 fn the_normal_smoothness_weight_anneals_with_its_own_final_factor() {
     let dir = tempfile::tempdir().unwrap();
     let dataset = capture(dir.path(), 4, 16);
     let mut config = small_config(110);
     config.loss.normal_smoothness = 2.0;
+    config.loss.normal_smoothness_final = 1.0;
     let constant = Trainer::new(config.clone(), TrainingRays::new(&dataset)).unwrap();
     assert!(
         [0, 60, 110]
