@@ -5,6 +5,16 @@
 //! `m ← β1 m + (1−β1) g`, `v ← β2 v + (1−β2) g²`,
 //! `p ← p − lr · (m / (1−β1^t)) / (sqrt(v / (1−β2^t)) + ε)`.
 //! Element-wise and parallel over fixed chunks, hence deterministic.
+//!
+//! Moments smaller than [`MOMENT_FLOOR`] are stored as 0. A hash-table
+//! entry that no training ray reaches any more keeps decaying its moments
+//! (m by β1, v by β2 each step) until they pass through the subnormal
+//! range, where every operation on them takes a microcode assist: late in
+//! a run most entries are there, and on the 2-vCPU Xeon the Adam step
+//! over the default model's 16.5 million entries grew from about 14 to
+//! 45–55 ms (`examples/adam_timing`: 23 ms a step with normal moments, 1.5 s
+//! with subnormal ones, one thread). Below the floor a moment moves its
+//! parameter by less than `lr · 1e-30 / ε`, far below f32's resolution.
 
 use crate::real::Real;
 use rayon::prelude::*;
@@ -59,6 +69,17 @@ pub struct Adam<T> {
 
 const ADAM_CHUNK: usize = 1 << 14;
 
+/// Moments of smaller magnitude are stored as 0 (see the module's notes),
+/// well above f32's smallest normal value, 1.2e-38, and far below any
+/// moment that moves a parameter.
+pub const MOMENT_FLOOR: f64 = 1e-30;
+
+/// `x`, or 0 when `|x| < floor`.
+#[inline(always)]
+fn flush<T: Real>(x: T, floor: T) -> T {
+    if x.abs() < floor { T::ZERO } else { x }
+}
+
 impl<T: Real> Adam<T> {
     /// An optimiser with no groups.
     pub fn new() -> Self {
@@ -99,6 +120,7 @@ impl<T: Real> Adam<T> {
         let ob1 = T::from_f64(1.0 - c.beta1);
         let ob2 = T::from_f64(1.0 - c.beta2);
         let eps = T::from_f64(c.eps);
+        let floor = T::from_f64(MOMENT_FLOOR);
         params
             .par_chunks_mut(ADAM_CHUNK)
             .zip(grads.par_chunks(ADAM_CHUNK))
@@ -107,8 +129,8 @@ impl<T: Real> Adam<T> {
             .for_each(|(((p, gr), m), v)| {
                 for i in 0..p.len() {
                     let gi = gr[i];
-                    let mi = b1 * m[i] + ob1 * gi;
-                    let vi = b2 * v[i] + ob2 * gi * gi;
+                    let mi = flush(b1 * m[i] + ob1 * gi, floor);
+                    let vi = flush(b2 * v[i] + ob2 * gi * gi, floor);
                     m[i] = mi;
                     v[i] = vi;
                     // p -= lr/bc1 · m / (sqrt(v)/sqrt(bc2) + eps)
