@@ -637,15 +637,6 @@ impl Trainer {
         }
         let radius = self.smoothness_radius(step);
         let offsets = random_offsets(rng, centres.len(), radius);
-        // The normal prior's pairs are the same offsets, scaled to its own
-        // reach (`loss.normal_smoothness_radius`, when set).
-        let scale = if loss.normal_smoothness_radius > 0.0 {
-            (loss.normal_smoothness_radius / radius) as f32
-        } else {
-            1.0
-        };
-        let normal_offsets =
-            normal_smoothness::pair_offsets(&offsets, &normals, loss.normal_difference, scale);
         let material_weight = self.material_smoothness_weight(step);
         let loss = &self.config.loss;
         let saturation = SmoothnessFactors::scales_of(
@@ -691,6 +682,15 @@ impl Trainer {
         let normal_weight = self.normal_smoothness_weight(step);
         let loss = &self.config.loss;
         let normal = if loss.normal_smoothness > 0.0 {
+            // The normal prior's pairs are the same offsets, scaled to its
+            // own reach (`loss.normal_smoothness_radius`, when set).
+            let scale = if loss.normal_smoothness_radius > 0.0 {
+                (loss.normal_smoothness_radius / radius) as f32
+            } else {
+                1.0
+            };
+            let normal_offsets =
+                normal_smoothness::pair_offsets(&offsets, &normals, loss.normal_difference, scale);
             self.normal_smoothness.forward_backward(
                 &self.model.sdf,
                 &centres,
