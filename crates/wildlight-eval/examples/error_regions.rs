@@ -14,6 +14,14 @@
 //!   knob, spout, handle, lid groove and foot by more);
 //! - **smooth**: the rest.
 //!
+//! A second table splits the flash views' error between the two terms of
+//! SPEC §2: it scores the flash views as rendered, with the true ambient
+//! term in place of the model's (so only the flash term's error is left),
+//! and with the true flash term in place of the model's (only the ambient
+//! term's error left), from the `ambient` and `flash` maps of the rendering
+//! and of the capture's `val/gt`; and it gives the share of each one's
+//! squared error held by the 1 % of pixels where it is largest.
+//!
 //! With a third argument, writes a PNG of one held-out view (the first, or
 //! the view index given as a fourth argument): the photo, the rendering
 //! (both clipped at 1) and each mask pixel's RMS error (×4) in red
@@ -41,11 +49,21 @@ const REGIONS: [&str; 4] = ["silhouette", "clipped", "turning", "smooth"];
 /// A photo value at or above this counts as clipped.
 const CLIP: f32 = 0.999;
 
+/// The flash views scored three ways: as rendered, with the true ambient
+/// term, with the true flash term.
+const TERM_ROWS: [&str; 3] = [
+    "as rendered",
+    "true ambient + model flash",
+    "model ambient + true flash",
+];
+
 /// Squared error and pixel count of each region, flash and no flash.
 #[derive(Default)]
 struct Tally {
     sq: [[f64; 4]; 2],
     pixels: [[usize; 4]; 2],
+    /// Per flash-view mask pixel, its squared error in each [`TERM_ROWS`] way.
+    terms: [Vec<f64>; 3],
 }
 
 fn read(dir: &Path, kind: &str, index: usize) -> Result<RgbImage> {
@@ -78,6 +96,58 @@ fn region(mask: &Mask, photo: &RgbImage, normal: &RgbImage, x: i64, y: i64) -> u
 
 fn psnr(sq: f64, values: usize) -> f64 {
     10.0 * (values as f64 / sq).log10()
+}
+
+/// Adds flash view `i`'s squared error per mask pixel, in each of the
+/// [`TERM_ROWS`] ways, to the tally.
+fn add_terms(
+    tally: &mut Tally,
+    render: &Path,
+    val: &Path,
+    i: usize,
+    photo: &RgbImage,
+    mask: &Mask,
+) -> Result<()> {
+    let gt = val.join("gt");
+    let (model_ambient, model_flash) = (read(render, "ambient", i)?, read(render, "flash", i)?);
+    let (true_ambient, true_flash) = (read(&gt, "ambient", i)?, read(&gt, "flash", i)?);
+    for (what, image) in [
+        ("model's ambient map", &model_ambient),
+        ("model's flash map", &model_flash),
+        ("true ambient map", &true_ambient),
+        ("true flash map", &true_flash),
+    ] {
+        if (image.width, image.height) != (mask.width, mask.height) {
+            bail!("view {i}: the {what} is not the size of the mask");
+        }
+    }
+    let pairs = [
+        (&model_ambient, &model_flash),
+        (&true_ambient, &model_flash),
+        (&model_ambient, &true_flash),
+    ];
+    for (j, _) in mask.data.iter().enumerate().filter(|(_, on)| **on) {
+        for (row, (ambient, flash)) in pairs.iter().enumerate() {
+            let sq: f64 = (0..3)
+                .map(|c| {
+                    let k = 3 * j + c;
+                    let v = (ambient.data[k] + flash.data[k]).min(1.0);
+                    f64::from(v - photo.data[k].min(1.0)).powi(2)
+                })
+                .sum();
+            tally.terms[row].push(sq);
+        }
+    }
+    Ok(())
+}
+
+/// The share of the total held by the largest 1 % of `values`.
+fn top_percent_share(values: &[f64]) -> f64 {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(|a, b| b.total_cmp(a));
+    let top = (sorted.len() / 100).max(1).min(sorted.len());
+    let total: f64 = sorted.iter().sum();
+    sorted[..top].iter().sum::<f64>() / total.max(f64::MIN_POSITIVE)
 }
 
 fn main() -> Result<()> {
@@ -116,6 +186,9 @@ fn main() -> Result<()> {
             if (image.width, image.height) != (mask.width, mask.height) {
                 bail!("view {i}: the {what} is not the size of the mask");
             }
+        }
+        if flash == 1 {
+            add_terms(&mut tally, render, &val, i, &photo, &mask)?;
         }
         let w = mask.width;
         let mut picture = RgbImage::new(3 * w, mask.height);
@@ -184,6 +257,22 @@ fn main() -> Result<()> {
             100.0,
             psnr(sq_all, 3 * px_all)
         );
+    }
+    if !tally.terms[0].is_empty() {
+        println!();
+        println!(
+            "{:>28} {:>9} {:>13}",
+            "flash views", "PSNR dB", "top 1% share"
+        );
+        for (row, name) in TERM_ROWS.iter().enumerate() {
+            let sq = &tally.terms[row];
+            println!(
+                "{:>28} {:>9.2} {:>12.1}%",
+                name,
+                psnr(sq.iter().sum(), 3 * sq.len()),
+                100.0 * top_percent_share(sq),
+            );
+        }
     }
     Ok(())
 }
