@@ -98,8 +98,30 @@ fn psnr(sq: f64, values: usize) -> f64 {
     10.0 * (values as f64 / sq).log10()
 }
 
-/// Adds flash view `i`'s squared error per mask pixel, in each of the
-/// [`TERM_ROWS`] ways, to the tally.
+/// Fails unless every named image of view `i` is the size of its mask.
+fn ensure_mask_size(i: usize, mask: &Mask, images: &[(&str, &RgbImage)]) -> Result<()> {
+    for (what, image) in images {
+        if (image.width, image.height) != (mask.width, mask.height) {
+            bail!("view {i}: the {what} is not the size of the mask");
+        }
+    }
+    Ok(())
+}
+
+/// The squared error of pixel `j` summed over its channels, both sides
+/// clipped at 1; `value(k)` is the predicted value of channel entry `k`.
+fn pixel_sq(photo: &RgbImage, j: usize, value: impl Fn(usize) -> f32) -> f64 {
+    (0..3)
+        .map(|c| {
+            let k = 3 * j + c;
+            f64::from(value(k).min(1.0) - photo.data[k].min(1.0)).powi(2)
+        })
+        .sum()
+}
+
+/// Adds flash view `i`'s squared error per mask pixel with the true
+/// ambient term and with the true flash term (the last two
+/// [`TERM_ROWS`]) to the tally; the caller adds the first, as rendered.
 fn add_terms(
     tally: &mut Tally,
     render: &Path,
@@ -111,31 +133,21 @@ fn add_terms(
     let gt = val.join("gt");
     let (model_ambient, model_flash) = (read(render, "ambient", i)?, read(render, "flash", i)?);
     let (true_ambient, true_flash) = (read(&gt, "ambient", i)?, read(&gt, "flash", i)?);
-    for (what, image) in [
-        ("model's ambient map", &model_ambient),
-        ("model's flash map", &model_flash),
-        ("true ambient map", &true_ambient),
-        ("true flash map", &true_flash),
-    ] {
-        if (image.width, image.height) != (mask.width, mask.height) {
-            bail!("view {i}: the {what} is not the size of the mask");
-        }
-    }
-    let pairs = [
-        (&model_ambient, &model_flash),
-        (&true_ambient, &model_flash),
-        (&model_ambient, &true_flash),
-    ];
+    ensure_mask_size(
+        i,
+        mask,
+        &[
+            ("model's ambient map", &model_ambient),
+            ("model's flash map", &model_flash),
+            ("true ambient map", &true_ambient),
+            ("true flash map", &true_flash),
+        ],
+    )?;
+    let swapped = [(&true_ambient, &model_flash), (&model_ambient, &true_flash)];
     for (j, _) in mask.data.iter().enumerate().filter(|(_, on)| **on) {
-        for (row, (ambient, flash)) in pairs.iter().enumerate() {
-            let sq: f64 = (0..3)
-                .map(|c| {
-                    let k = 3 * j + c;
-                    let v = (ambient.data[k] + flash.data[k]).min(1.0);
-                    f64::from(v - photo.data[k].min(1.0)).powi(2)
-                })
-                .sum();
-            tally.terms[row].push(sq);
+        for (row, (ambient, flash)) in swapped.iter().enumerate() {
+            let sq = pixel_sq(photo, j, |k| ambient.data[k] + flash.data[k]);
+            tally.terms[row + 1].push(sq);
         }
     }
     Ok(())
@@ -178,15 +190,15 @@ fn main() -> Result<()> {
         let mask_path = val.join("mask").join(format!("{i:03}.png"));
         let mask = read_mask_png(&mask_path)
             .with_context(|| format!("reading {}", mask_path.display()))?;
-        for (what, image) in [
-            ("photo", &photo),
-            ("rendering", &rendering),
-            ("normal map", &normal),
-        ] {
-            if (image.width, image.height) != (mask.width, mask.height) {
-                bail!("view {i}: the {what} is not the size of the mask");
-            }
-        }
+        ensure_mask_size(
+            i,
+            &mask,
+            &[
+                ("photo", &photo),
+                ("rendering", &rendering),
+                ("normal map", &normal),
+            ],
+        )?;
         if flash == 1 {
             add_terms(&mut tally, render, &val, i, &photo, &mask)?;
         }
@@ -202,14 +214,12 @@ fn main() -> Result<()> {
                     continue;
                 }
                 let r = region(&mask, &photo, &normal, x, y);
-                let sq: f64 = (0..3)
-                    .map(|c| {
-                        let d = rendering.data[3 * j + c].min(1.0) - photo.data[3 * j + c].min(1.0);
-                        (d as f64).powi(2)
-                    })
-                    .sum();
+                let sq = pixel_sq(&photo, j, |k| rendering.data[k]);
                 tally.sq[flash][r] += sq;
                 tally.pixels[flash][r] += 1;
+                if flash == 1 {
+                    tally.terms[0].push(sq);
+                }
                 let e = (4.0 * (sq / 3.0).sqrt()) as f32;
                 let colour = match r {
                     0 => [e, 0.0, 0.0],
