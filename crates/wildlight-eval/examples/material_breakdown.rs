@@ -7,7 +7,11 @@
 //! error, and its share of the squared image error (values clipped at 1) in
 //! the flash and the no-flash views. A second table gives, per group, the
 //! other parameters of Θ (dielectric specular, clearcoat, clearcoat gloss,
-//! subsurface), truth and prediction, read from the `params` maps. A third
+//! subsurface), truth and prediction, read from the `params` maps, and the
+//! median angle between the predicted and the true normals with the share
+//! of pixels more than 5° off (a sharp lobe needs normals accurate to about
+//! its width, so a group with poor normals settles on rougher, darker
+//! metal). A third
 //! and a fourth give, per group, the means of the two terms of SPEC §2 and
 //! of the image clipped at 1, truth and prediction (the `ambient`, `flash`
 //! and `image` maps, averaged over the channels), in the flash and in the
@@ -51,6 +55,9 @@ struct Pixel {
     pred: [f64; PARAM_COUNT],
     /// Squared image error summed over the channels.
     image_sq: f64,
+    /// Angle between the predicted and the true normal, in degrees (none
+    /// where either map has no normal).
+    normal_deg: Option<f64>,
     flash: bool,
     /// Channel means of the ambient term, the flash term and the image
     /// clipped at 1: truth, prediction.
@@ -92,6 +99,12 @@ fn read_view_pixels(render: &Path, val: &Path, index: usize, flash: bool) -> Res
     let (gt_image, pred_image) = (read(val)?, read(render)?);
     let gt = read_params(&val.join("gt").join("params").join(&name))?;
     let pred = read_params(&render.join("params").join(&name))?;
+    let normals = [val.join("gt"), render.to_path_buf()].map(|dir| {
+        let path = dir.join("normal").join(&name);
+        read_exr_rgb(&path).with_context(|| format!("reading {}", path.display()))
+    });
+    let [gt_normal, pred_normal] = normals;
+    let (gt_normal, pred_normal) = (gt_normal?, pred_normal?);
     let mask_path = val.join("mask").join(format!("{index:03}.png"));
     let mask =
         read_mask_png(&mask_path).with_context(|| format!("reading {}", mask_path.display()))?;
@@ -109,6 +122,11 @@ fn read_view_pixels(render: &Path, val: &Path, index: usize, flash: bool) -> Res
         ("true parameter map", (gt.0, gt.1)),
         ("predicted parameter map", (pred.0, pred.1)),
         ("photo", (gt_image.width, gt_image.height)),
+        ("true normal map", (gt_normal.width, gt_normal.height)),
+        (
+            "predicted normal map",
+            (pred_normal.width, pred_normal.height),
+        ),
         ("rendering", (pred_image.width, pred_image.height)),
     ] {
         if dims != size {
@@ -130,6 +148,16 @@ fn read_view_pixels(render: &Path, val: &Path, index: usize, flash: bool) -> Res
                     (clip(&pred_image) - clip(&gt_image)).powi(2)
                 })
                 .sum(),
+            normal_deg: {
+                let n = |im: &RgbImage| {
+                    glam::DVec3::from_array(std::array::from_fn(|c| im.data[3 * j + c] as f64))
+                };
+                let (a, b) = (n(&gt_normal), n(&pred_normal));
+                (a.length_squared() > 0.0 && b.length_squared() > 0.0).then(|| {
+                    let cos = a.normalize().dot(b.normalize()).clamp(-1.0, 1.0);
+                    cos.acos().to_degrees()
+                })
+            },
             flash,
             terms: {
                 let clip = |im: &RgbImage| {
@@ -264,7 +292,7 @@ fn main() -> Result<()> {
     for (_, title) in OTHER_PARAMS {
         print!(" {:>13}", format!("{title} t / p"));
     }
-    println!();
+    println!(" {:>15}", "normal° med >5°");
     for (k, members) in &groups {
         let n = members.len() as f64;
         let mean = |f: &dyn Fn(&Pixel) -> f64| members.iter().map(|p| f(p)).sum::<f64>() / n;
@@ -277,6 +305,14 @@ fn main() -> Result<()> {
         for (i, _) in OTHER_PARAMS {
             print!(" {:>6.3} {:.3}", mean(&|p| p.gt[i]), mean(&|p| p.pred[i]));
         }
+        let mut angles: Vec<f64> = members.iter().filter_map(|p| p.normal_deg).collect();
+        angles.sort_by(f64::total_cmp);
+        let off = angles.iter().filter(|a| **a > 5.0).count() as f64;
+        print!(
+            " {:>7.2} {:>6.1}%",
+            angles.get(angles.len() / 2).copied().unwrap_or(f64::NAN),
+            100.0 * off / angles.len().max(1) as f64
+        );
         println!("{}", if k.is_none() { "  (other)" } else { "" });
     }
     // The terms of SPEC §2 and the clipped image, group by group, in the

@@ -7,7 +7,7 @@ use crate::model::Model;
 use crate::pipeline::{Pipeline, eval_sdf};
 use crate::render_view::render_view;
 use crate::run::{CHECKPOINT_FILE, RunInfo, read_run};
-use crate::trainer::load_model;
+use crate::trainer::{AVERAGE_COUNT, AVERAGE_PREFIX, load_model};
 use anyhow::Context;
 use std::path::Path;
 use wildlight_data::exr_io::{write_exr_channels, write_exr_rgb};
@@ -39,7 +39,10 @@ impl TrainedRun {
         let ck = Checkpoint::load(&ckpt_path)
             .with_context(|| format!("cannot read the checkpoint {}", ckpt_path.display()))?;
         let mut model = Model::new(&config.model, config.seed)?;
-        load_model(&mut model, &ck)?;
+        // A run that averaged its parameters renders their mean (when the
+        // average holds any yet: a snapshot from before its start has none).
+        let averaged = config.optim.average_from < 1.0 && ck.metadata(AVERAGE_COUNT).is_some();
+        load_model(&mut model, &ck, if averaged { AVERAGE_PREFIX } else { "" })?;
         let mut grid = OccupancyGrid::new(config.sampling.occupancy())?;
         let mut ctx = FieldContext::new();
         let s = model.s();

@@ -14,11 +14,13 @@
 //! - [`visual_hull`]: the masks' visual hull and a prior keeping the SDF
 //!   positive outside it (no floaters);
 //! - [`trainer`]: the optimisation step, checkpoints;
+//! - [`averaging`]: the mean of the parameters over a run's last part;
 //! - [`render_view`]: rendering whole views and their maps;
 //! - [`preview`]: preview images;
 //! - [`run`]: the run folder and the training loop behind `wildlight train`.
 
 pub mod ambient;
+pub mod averaging;
 pub mod config;
 pub mod error_map;
 pub mod float;

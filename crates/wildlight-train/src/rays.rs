@@ -9,7 +9,9 @@
 //! where a groove crosses the outline is a few pixels out of 65,536, and a
 //! uniform draw reaches each of them about once in a whole training run.
 //! A fourth kind, optional, draws pixels where the model's colour error is
-//! large ([`crate::error_map`]).
+//! large ([`crate::error_map`]). Flash images can be drawn more (or less)
+//! often than no-flash ones, in every kind of draw
+//! ([`TrainingRays::set_flash_weight`]).
 
 use crate::error_map::ErrorMap;
 use rand::Rng;
@@ -30,6 +32,9 @@ pub struct TrainingRays {
     pub saturation: Option<f32>,
     /// Whether the capture has masks.
     pub has_masks: bool,
+    /// Probability of keeping a drawn pixel, per view (none: every draw is
+    /// kept; see [`TrainingRays::set_flash_weight`]).
+    keep: Option<Vec<f64>>,
 }
 
 struct ViewRays {
@@ -165,6 +170,39 @@ impl TrainingRays {
             silhouette: Vec::new(),
             error_map: None,
             saturation: dataset.saturation,
+            keep: None,
+        }
+    }
+
+    /// Draws each pixel of a flash image `weight` times as often as a pixel
+    /// of a no-flash image, in every kind of draw (a view is a flash view
+    /// when its flash energy is non-zero). A drawn pixel is kept with
+    /// probability `w_v / max w` and drawn again otherwise, so a weight of
+    /// 1, or a capture with only one kind of view, leaves the draws (and
+    /// the random numbers they use) exactly as they were.
+    pub fn set_flash_weight(&mut self, weight: f64) {
+        let weights: Vec<f64> = self
+            .views
+            .iter()
+            .map(|v| {
+                if v.energy.iter().any(|e| *e != 0.0) {
+                    weight
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        let max = weights.iter().copied().fold(0.0, f64::max);
+        self.keep = (weights.iter().any(|w| *w != max) && max > 0.0)
+            .then(|| weights.iter().map(|w| w / max).collect());
+    }
+
+    /// Whether a pixel drawn from view `v` is kept (always, without view
+    /// weights; no random number is used then).
+    fn keep_draw(&self, rng: &mut impl Rng, v: u32) -> bool {
+        match &self.keep {
+            None => true,
+            Some(keep) => rng.random::<f64>() < keep[v as usize],
         }
     }
 
@@ -251,16 +289,28 @@ impl TrainingRays {
         let n_band = count(!self.silhouette.is_empty(), shares.silhouette).min(n - n_fg);
         for (pixels, draws) in [(&self.foreground, n_fg), (&self.silhouette, n_band)] {
             for _ in 0..draws {
-                let (v, p) = pixels[rng.random_range(0..pixels.len())];
+                let (v, p) = loop {
+                    let (v, p) = pixels[rng.random_range(0..pixels.len())];
+                    if self.keep_draw(rng, v) {
+                        break (v, p);
+                    }
+                };
                 out.push(v, &self.views[v as usize], p);
             }
         }
         if let Some(map) = &self.error_map {
+            // The error map weighs its tiles itself; view weights do not
+            // apply to its draws.
             let n_err = count(true, shares.error).min(n - out.len());
             map.draw(rng, n_err, |v, p| out.push(v, &self.views[v as usize], p));
         }
         for _ in out.len()..n {
-            let v = rng.random_range(0..self.views.len());
+            let v = loop {
+                let v = rng.random_range(0..self.views.len());
+                if self.keep_draw(rng, v as u32) {
+                    break v;
+                }
+            };
             let view = &self.views[v];
             let p = rng.random_range(0..view.width * view.height);
             out.push(v as u32, view, p);
@@ -322,10 +372,9 @@ mod tests {
         assert!(silhouette_band(&[false; 16], 4, 4, 1).is_empty());
     }
 
-    #[test]
-    fn draws_follow_the_shares() {
-        // One 16×16 view whose red channel is the pixel index, with a 6×6
-        // object in the middle.
+    /// A 16×16 view whose red channel is the pixel index, with a 6×6
+    /// object in the middle, lit by a flash of `energy`.
+    fn test_view(energy: [f32; 3]) -> ViewRays {
         let (w, h) = (16u32, 16u32);
         let camera = Camera::look_at(
             0,
@@ -339,29 +388,52 @@ mod tests {
             [0.0; 3],
         )
         .unwrap();
-        let object = mask(16, 16, |x, y| (5..11).contains(&x) && (5..11).contains(&y));
         let mut pixels = vec![0.0; (w * h * 3) as usize];
         for p in 0..(w * h) as usize {
             pixels[3 * p] = p as f32;
         }
-        let mut rays = TrainingRays {
-            views: vec![ViewRays {
-                camera,
-                width: w,
-                height: h,
-                pixels,
-                mask: Some(object.clone()),
-                energy: [0.0; 3],
-            }],
-            foreground: (0..w * h)
-                .filter(|p| object[*p as usize])
-                .map(|p| (0, p))
-                .collect(),
+        ViewRays {
+            camera,
+            width: w,
+            height: h,
+            pixels,
+            mask: Some(mask(16, 16, |x, y| {
+                (5..11).contains(&x) && (5..11).contains(&y)
+            })),
+            energy,
+        }
+    }
+
+    /// Training rays over `views`, with their foreground pixels listed.
+    fn rays_of(views: Vec<ViewRays>) -> TrainingRays {
+        let foreground = views
+            .iter()
+            .enumerate()
+            .flat_map(|(v, view)| {
+                let m = view.mask.as_ref().unwrap();
+                (0..m.len() as u32)
+                    .filter(|p| m[*p as usize])
+                    .map(move |p| (v as u32, p))
+            })
+            .collect();
+        TrainingRays {
+            views,
+            foreground,
             silhouette: Vec::new(),
             error_map: None,
             saturation: None,
             has_masks: true,
-        };
+            keep: None,
+        }
+    }
+
+    #[test]
+    fn draws_follow_the_shares() {
+        // One 16×16 view whose red channel is the pixel index, with a 6×6
+        // object in the middle.
+        let (w, h) = (16u32, 16u32);
+        let mut rays = rays_of(vec![test_view([0.0; 3])]);
+        let object = rays.views[0].mask.clone().unwrap();
         rays.set_silhouette_band(1);
         let band = silhouette_band(&object, 16, 16, 1);
         assert_eq!(rays.silhouette_pixels(), band.len());
@@ -447,5 +519,59 @@ mod tests {
             .filter(|p| (8..12).contains(&(**p % w)) && (8..12).contains(&(**p / w)))
             .count();
         assert!(hot >= 95, "{hot} of 100 error draws in the hot tile");
+    }
+
+    #[test]
+    fn flash_views_are_drawn_by_their_weight() {
+        // Two views alike but for the flash: view 1 has it.
+        let mut rays = rays_of(vec![test_view([0.0; 3]), test_view([1.0; 3])]);
+        let shares = RayShares {
+            foreground: 0.5,
+            silhouette: 0.0,
+            error: 0.0,
+        };
+        let draw = |rays: &TrainingRays| {
+            let mut batch = RayBatch::default();
+            rays.draw(
+                &mut rand_pcg::Pcg64::seed_from_u64(11),
+                4000,
+                shares,
+                &mut batch,
+            );
+            batch
+        };
+        let flash_share = |b: &RayBatch, range: std::ops::Range<usize>| {
+            let n = range.len() as f64;
+            b.pixels[range].iter().filter(|(v, _)| *v == 1).count() as f64 / n
+        };
+        let plain = draw(&rays);
+        // Weight 1 changes nothing, random numbers included.
+        rays.set_flash_weight(1.0);
+        assert!(rays.keep.is_none());
+        assert_eq!(draw(&rays).pixels, plain.pixels);
+        let even = flash_share(&plain, 0..4000);
+        assert!((even - 0.5).abs() < 0.03, "{even}");
+        // Weight 3: three flash draws for each no-flash one, in the
+        // foreground draws and in the uniform ones alike.
+        rays.set_flash_weight(3.0);
+        let heavy = draw(&rays);
+        assert_eq!(heavy.len(), 4000);
+        for half in [0..2000, 2000..4000] {
+            let share = flash_share(&heavy, half.clone());
+            assert!((share - 0.75).abs() < 0.03, "{half:?}: {share}");
+        }
+        assert!(
+            heavy.pixels[..2000]
+                .iter()
+                .all(|(v, p)| rays.views[*v as usize].mask.as_ref().unwrap()[*p as usize])
+        );
+        // Below 1 the flash views are drawn less.
+        rays.set_flash_weight(0.25);
+        let light = flash_share(&draw(&rays), 0..4000);
+        assert!((light - 0.2).abs() < 0.03, "{light}");
+        // A capture of flash views only: nothing to weigh.
+        let mut flash_only = rays_of(vec![test_view([1.0; 3]), test_view([2.0; 3])]);
+        flash_only.set_flash_weight(3.0);
+        assert!(flash_only.keep.is_none());
     }
 }

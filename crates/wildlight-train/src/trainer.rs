@@ -4,6 +4,7 @@
 //! step's random numbers come from (seed, step) alone, so a resumed run
 //! continues exactly.
 
+use crate::averaging::ParameterAverage;
 use crate::config::{SmoothnessFactors, TrainConfig};
 use crate::loss::{add_colour_l2, colour_l1, counted_l1, mask_bce, psnr};
 use crate::metallic_prior::BinaryMetallic;
@@ -136,6 +137,9 @@ pub struct Trainer {
     d_colour: Vec<[f32; 3]>,
     d_acc: Vec<f32>,
     schedule: LrSchedule,
+    /// The mean of the parameters over the run's last part (`None` when
+    /// `optim.average_from` is 1).
+    average: Option<ParameterAverage>,
 }
 
 fn mix(seed: u64, step: u64, stream: u64) -> u64 {
@@ -156,6 +160,7 @@ impl Trainer {
         } else {
             0
         });
+        rays.set_flash_weight(config.flash_view_weight);
         rays.set_error_map(if config.error_fraction > 0.0 {
             config.error_tile
         } else {
@@ -248,7 +253,9 @@ impl Trainer {
         } else {
             None
         };
+        let average = (config.optim.average_from < 1.0).then(|| ParameterAverage::new(&model));
         let mut t = Self {
+            average,
             model,
             step: 0,
             lr_scale: 1.0,
@@ -292,6 +299,35 @@ impl Trainer {
     /// `optim.metallic_hold` × the planned steps, rounded up.
     pub fn metallic_hold_steps(&self) -> u64 {
         self.share_of_planned_steps(self.config.optim.metallic_hold)
+    }
+
+    /// The first step whose parameters enter the average:
+    /// `optim.average_from` × the planned steps, rounded up.
+    pub fn average_start_step(&self) -> u64 {
+        self.share_of_planned_steps(self.config.optim.average_from)
+    }
+
+    /// The mean of the parameters so far (`None` when averaging is off).
+    pub fn average(&self) -> Option<&ParameterAverage> {
+        self.average.as_ref()
+    }
+
+    /// Adds the parameters just updated at `step` to the average, from
+    /// [`Self::average_start_step`] on, every `optim.average_every` steps.
+    /// An average begun before the start (the plan grew: a run resumed with
+    /// more `--iters`, or a time budget's pace rose) is dropped and begins
+    /// again at the new start.
+    fn add_to_average(&mut self, step: u64) {
+        let start = self.average_start_step();
+        let every = self.config.optim.average_every;
+        let Some(avg) = &mut self.average else {
+            return;
+        };
+        if step < start {
+            avg.count = 0;
+        } else if (step - start).is_multiple_of(every) {
+            avg.add(&self.model);
+        }
     }
 
     /// The first step of the binary-metallic prior:
@@ -551,6 +587,7 @@ impl Trainer {
             self.skipped_steps += 1;
         } else {
             self.apply_adam(lr_factor);
+            self.add_to_average(step);
         }
         self.step += 1;
         let t_end = Instant::now();
@@ -742,7 +779,11 @@ impl Trainer {
             "refusing to write a checkpoint with non-finite parameters"
         );
         let mut w = CheckpointWriter::new();
-        save_model(&self.model, &mut w);
+        save_model(&self.model, &mut w, "");
+        if let Some(avg) = self.average.as_ref().filter(|a| a.count > 0) {
+            save_model(&avg.model, &mut w, AVERAGE_PREFIX);
+            w.set_metadata(AVERAGE_COUNT, &avg.count.to_string());
+        }
         self.adam.save_to(&mut w, "adam");
         let grid = self.grid.snapshot();
         w.add("occupancy.sdf", &[grid.sdf.len()], &grid.sdf);
@@ -767,7 +808,17 @@ impl Trainer {
     pub fn load_checkpoint(&mut self, path: &Path) -> anyhow::Result<()> {
         let ck = Checkpoint::load(path)
             .with_context(|| format!("cannot read the checkpoint {}", path.display()))?;
-        load_model(&mut self.model, &ck)?;
+        load_model(&mut self.model, &ck, "")?;
+        if let Some(avg) = &mut self.average {
+            // absent until the average holds a parameter set
+            match ck.metadata(AVERAGE_COUNT) {
+                Some(count) => {
+                    avg.count = count.parse().context(AVERAGE_COUNT)?;
+                    load_model(&mut avg.model, &ck, AVERAGE_PREFIX)?;
+                }
+                None => *avg = ParameterAverage::new(&self.model),
+            }
+        }
         self.adam
             .load_from(&ck, "adam")
             .with_context(|| format!("{}: optimiser state", path.display()))?;
@@ -820,39 +871,50 @@ impl Trainer {
     }
 }
 
-/// Adds the model's parameters to a checkpoint.
-pub fn save_model(model: &Model, w: &mut CheckpointWriter) {
-    model.sdf.save_to(w, "sdf");
-    model.material.save_to(w, "material");
-    model.ambient.save_to(w, "ambient");
+/// Prefix of the averaged parameters' tensors in a checkpoint.
+pub const AVERAGE_PREFIX: &str = "average.";
+/// Checkpoint metadata: how many parameter sets the average holds.
+pub const AVERAGE_COUNT: &str = "average.count";
+
+/// Adds the model's parameters to a checkpoint, each tensor's name after
+/// `prefix` ("" for the live model, [`AVERAGE_PREFIX`] for the average).
+pub fn save_model(model: &Model, w: &mut CheckpointWriter, prefix: &str) {
+    model.sdf.save_to(w, &format!("{prefix}sdf"));
+    model.material.save_to(w, &format!("{prefix}material"));
+    model.ambient.save_to(w, &format!("{prefix}ambient"));
     if let Some(f) = &model.ambient_specular {
-        f.save_to(w, "ambient_specular");
+        f.save_to(w, &format!("{prefix}ambient_specular"));
     }
-    w.add("scalars", &[2], &[model.sharpness, model.log_gain]);
+    w.add(
+        &format!("{prefix}scalars"),
+        &[2],
+        &[model.sharpness, model.log_gain],
+    );
 }
 
-/// Reads the model's parameters from a checkpoint.
-pub fn load_model(model: &mut Model, ck: &Checkpoint) -> anyhow::Result<()> {
+/// Reads the model's parameters (those saved with `prefix`) from a
+/// checkpoint.
+pub fn load_model(model: &mut Model, ck: &Checkpoint, prefix: &str) -> anyhow::Result<()> {
     let p = ck.path().display().to_string();
     model
         .sdf
-        .load_from(ck, "sdf")
-        .with_context(|| format!("{p}: SDF field"))?;
+        .load_from(ck, &format!("{prefix}sdf"))
+        .with_context(|| format!("{p}: {prefix}SDF field"))?;
     model
         .material
-        .load_from(ck, "material")
-        .with_context(|| format!("{p}: material field"))?;
+        .load_from(ck, &format!("{prefix}material"))
+        .with_context(|| format!("{p}: {prefix}material field"))?;
     model
         .ambient
-        .load_from(ck, "ambient")
-        .with_context(|| format!("{p}: ambient field"))?;
+        .load_from(ck, &format!("{prefix}ambient"))
+        .with_context(|| format!("{p}: {prefix}ambient field"))?;
     if let Some(f) = &mut model.ambient_specular {
-        f.load_from(ck, "ambient_specular")
-            .with_context(|| format!("{p}: ambient specular field"))?;
+        f.load_from(ck, &format!("{prefix}ambient_specular"))
+            .with_context(|| format!("{p}: {prefix}ambient specular field"))?;
     }
     let mut s = [0.0f32; 2];
-    ck.read_into("scalars", &[2], &mut s)
-        .with_context(|| format!("{p}: scalars"))?;
+    ck.read_into(&format!("{prefix}scalars"), &[2], &mut s)
+        .with_context(|| format!("{p}: {prefix}scalars"))?;
     model.sharpness = s[0];
     model.log_gain = s[1];
     anyhow::ensure!(

@@ -188,6 +188,102 @@ fn resumed_training_of_the_plain_neural_ambient_without_the_material_prior_conti
     check_resume(AmbientModel::Neural, 0.0, |_| {});
 }
 
+/// The mean of the parameters over the run's tail is in the checkpoint, so
+/// a run resumed inside the averaged part (from 0.25 of the run) continues
+/// it exactly, and one resumed before it (from 0.75) starts it as the
+/// straight run did.
+#[test]
+fn resumed_training_continues_the_parameter_average_exactly() {
+    for from in [0.25, 0.75] {
+        check_resume(AmbientModel::NeuralRoom, DEFAULT_SMOOTHNESS, |c| {
+            c.optim.average_from = from;
+            c.optim.average_every = 1;
+        });
+    }
+}
+
+/// The average begins at its share of the planned steps; when the plan
+/// grows past the steps already averaged (a time budget's pace rose, or a
+/// resumed run was given more steps), it begins again at the new start.
+#[test]
+fn the_parameter_average_follows_the_planned_steps() {
+    let dir = tempfile::tempdir().unwrap();
+    let dataset = capture(dir.path(), 6, 24);
+    let mut config = small_config(40);
+    config.batch_rays = 96;
+    config.optim.average_from = 0.5;
+    config.optim.average_every = 2;
+    let mut trainer = Trainer::new(config, TrainingRays::new(&dataset)).unwrap();
+    trainer.plan_total_steps(8);
+    assert_eq!(trainer.average_start_step(), 4);
+    let count = |t: &Trainer| t.average().unwrap().count;
+    let mut counts = Vec::new();
+    for _ in 0..8 {
+        trainer.step();
+        counts.push(count(&trainer));
+    }
+    // steps 4 and 6 are added
+    assert_eq!(counts, [0, 0, 0, 0, 1, 1, 2, 2]);
+    trainer.plan_total_steps(20);
+    assert_eq!(trainer.average_start_step(), 10);
+    trainer.step();
+    assert_eq!(count(&trainer), 0, "the old tail is dropped");
+    while trainer.step < 11 {
+        trainer.step();
+    }
+    assert_eq!(count(&trainer), 1, "and the new one begins at step 10");
+}
+
+/// A finished run that averaged its parameters renders and exports their
+/// mean: `TrainedRun` loads the average, not the last step's parameters.
+#[test]
+fn a_trained_run_loads_the_parameter_average() {
+    use wildlight_fields::Checkpoint;
+    use wildlight_train::inference::TrainedRun;
+    use wildlight_train::run::{CHECKPOINT_FILE, RunOptions, train};
+    use wildlight_train::trainer::{AVERAGE_COUNT, AVERAGE_PREFIX, load_model};
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("capture");
+    capture(&data, 6, 24);
+    let out = dir.path().join("run");
+    let mut config = small_config(6);
+    config.batch_rays = 96;
+    config.output.preview_every = 0;
+    config.optim.average_from = 0.5;
+    config.optim.average_every = 2;
+    train(&RunOptions {
+        data: Some(data),
+        out: out.clone(),
+        config,
+        time_budget: None,
+        snapshot_every: None,
+        resume: false,
+        progress: false,
+    })
+    .unwrap();
+    let ck = Checkpoint::load(&out.join(CHECKPOINT_FILE)).unwrap();
+    // steps 3 and 5 (from ⌈0.5 · 6⌉ = 3, every 2)
+    assert_eq!(ck.metadata(AVERAGE_COUNT), Some("2"));
+    let trained = TrainedRun::load(&out).unwrap();
+    let mut want = trained.model.clone();
+    load_model(&mut want, &ck, AVERAGE_PREFIX).unwrap();
+    let mut live = trained.model.clone();
+    load_model(&mut live, &ck, "").unwrap();
+    assert_eq!(
+        trained.model.sdf.field.grid.params,
+        want.sdf.field.grid.params
+    );
+    assert_eq!(
+        trained.model.material.grid.params,
+        want.material.grid.params
+    );
+    assert_eq!(trained.model.log_gain.to_bits(), want.log_gain.to_bits());
+    assert_ne!(
+        trained.model.sdf.field.grid.params,
+        live.sdf.field.grid.params
+    );
+}
+
 /// The default weight of the material smoothness prior.
 const DEFAULT_SMOOTHNESS: f64 = 0.1;
 
@@ -263,6 +359,39 @@ fn check_resume(
         assert_eq!(a.log_gain.to_bits(), b.log_gain.to_bits());
         let map = |t: &Trainer| t.rays().error_map().map(|m| m.values().to_vec());
         assert_eq!(map(&straight), map(&second));
+        let average = |t: &Trainer| {
+            t.average().map(|avg| {
+                let m = &avg.model;
+                (
+                    avg.count,
+                    m.sdf.field.grid.params.clone(),
+                    m.material.mlp.params.clone(),
+                    m.ambient.grid.params.clone(),
+                    m.sharpness.to_bits(),
+                )
+            })
+        };
+        // (an average that holds nothing yet has no values to compare)
+        let (sa, sb) = (average(&straight), average(&second));
+        assert_eq!(
+            sa.as_ref().map(|a| a.0),
+            sb.as_ref().map(|b| b.0),
+            "parameter sets averaged"
+        );
+        assert!(
+            sa.as_ref().is_some_and(|a| a.0 == 0) || sa == sb,
+            "the averages differ"
+        );
+        if let Some(avg) = straight.average() {
+            // it holds every step it should from its start, and (when it
+            // holds any) it is not the live model
+            let every = straight.config.optim.average_every as usize;
+            let added = (straight.average_start_step()..n).step_by(every).count();
+            assert_eq!(avg.count, added as u64);
+            if added > 0 {
+                assert_ne!(avg.model.sdf.field.grid.params, a.sdf.field.grid.params);
+            }
+        }
         if let Some(values) = map(&straight) {
             // the steps measured tiles
             let initial = wildlight_train::error_map::ErrorMap::INITIAL;
