@@ -810,13 +810,14 @@ impl Trainer {
             .with_context(|| format!("cannot read the checkpoint {}", path.display()))?;
         load_model(&mut self.model, &ck, "")?;
         if let Some(avg) = &mut self.average {
-            // absent until the average holds a parameter set
+            // absent until the average holds a parameter set; an empty
+            // average's values are never read (its first set is copied in)
             match ck.metadata(AVERAGE_COUNT) {
                 Some(count) => {
                     avg.count = count.parse().context(AVERAGE_COUNT)?;
                     load_model(&mut avg.model, &ck, AVERAGE_PREFIX)?;
                 }
-                None => *avg = ParameterAverage::new(&self.model),
+                None => avg.count = 0,
             }
         }
         self.adam
