@@ -644,6 +644,15 @@ pub struct ModelConfig {
     /// 0.27 and 0.67 / 0.43 dB (flash / no flash); 0.3 gave neither. The
     /// default, 1, keeps the views.
     pub ambient_flash_gradient: f64,
+    /// The factor on the flash photos' ambient gradient from
+    /// `ambient_flash_gradient_late_from` × the planned steps on (rounded
+    /// up), in [0, 1]; `ambient_flash_gradient` before. Late in a run the
+    /// ambient fields have learnt the room, and a factor below 1 makes the
+    /// flash term explain what the flash adds.
+    pub ambient_flash_gradient_late: f64,
+    /// The share of the planned steps after which
+    /// `ambient_flash_gradient_late` applies (1, the default: never).
+    pub ambient_flash_gradient_late_from: f64,
     /// Which direction the ambient field sees in its spherical-harmonics
     /// input.
     pub ambient_direction: AmbientDirection,
@@ -766,6 +775,8 @@ impl Default for ModelConfig {
             init_material: [0.5, 0.5, 0.5, 0.5, 0.5, 0.05, 0.05, 0.5, 0.05],
             ambient_trains_material: true,
             ambient_flash_gradient: 1.0,
+            ambient_flash_gradient_late: 1.0,
+            ambient_flash_gradient_late_from: 1.0,
             ambient_direction: AmbientDirection::Reflected,
             ambient_model: AmbientModel::NeuralRoom,
             ambient_sh_bands: 4,
@@ -938,6 +949,10 @@ impl TrainConfig {
                 "loss.smoothness_saturation_start",
                 self.loss.smoothness_saturation_start,
             ),
+            (
+                "model.ambient_flash_gradient_late_from",
+                self.model.ambient_flash_gradient_late_from,
+            ),
         ] {
             if v > 1.0 {
                 return bad(name, "must be a fraction of the run, at most 1");
@@ -1004,6 +1019,10 @@ impl TrainConfig {
             ("loss.visual_hull", self.loss.visual_hull),
             ("optim.metallic_hold", self.optim.metallic_hold),
             ("optim.average_from", self.optim.average_from),
+            (
+                "model.ambient_flash_gradient_late_from",
+                self.model.ambient_flash_gradient_late_from,
+            ),
         ]
         .into_iter()
         .chain(self.loss.smoothness_factors.named())
@@ -1080,6 +1099,9 @@ impl TrainConfig {
         }
         if !(0.0..=1.0).contains(&self.model.ambient_flash_gradient) {
             return bad("model.ambient_flash_gradient", "must be in [0, 1]");
+        }
+        if !(0.0..=1.0).contains(&self.model.ambient_flash_gradient_late) {
+            return bad("model.ambient_flash_gradient_late", "must be in [0, 1]");
         }
         if !(1..=4).contains(&self.model.ambient_sh_bands) {
             return bad("model.ambient_sh_bands", "must be 1, 2, 3 or 4");
@@ -1230,6 +1252,24 @@ mod tests {
             );
         }
         c.model.ambient_flash_gradient = 0.0;
+        for bad_factor in [-0.5, 1.5, f64::NAN] {
+            c.model.ambient_flash_gradient_late = bad_factor;
+            assert!(
+                c.validate()
+                    .unwrap_err()
+                    .contains("model.ambient_flash_gradient_late")
+            );
+        }
+        c.model.ambient_flash_gradient_late = 0.0;
+        for bad_share in [-0.1, 1.1, f64::NAN] {
+            c.model.ambient_flash_gradient_late_from = bad_share;
+            assert!(
+                c.validate()
+                    .unwrap_err()
+                    .contains("model.ambient_flash_gradient_late_from")
+            );
+        }
+        c.model.ambient_flash_gradient_late_from = 0.8;
         for bad_share in [-0.1, 1.1] {
             c.optim.metallic_hold = bad_share;
             assert!(c.validate().unwrap_err().contains("optim.metallic_hold"));

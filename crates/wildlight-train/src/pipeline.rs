@@ -91,6 +91,9 @@ pub struct PassSettings {
     /// Holds every sample's metallic value at this (no gradient reaches the
     /// material field through it); `None`: the field's own.
     pub metallic_hold: Option<f64>,
+    /// The factor on the gradient the flash photos send to the ambient
+    /// term; `None`: the model's `ambient_flash_gradient`.
+    pub ambient_flash_gradient: Option<f64>,
 }
 
 /// Buffers and results of a pass.
@@ -399,7 +402,9 @@ impl<T: Float + Default> Pipeline<T> {
         // The flash photos' share of the ambient term's gradient, scaled (at
         // 0 their ambient term is a given). In place: the flash term has
         // taken its gradient above, and nothing reads ∂L/∂c_k after this.
-        let flash_factor = model.config.ambient_flash_gradient;
+        let flash_factor = settings
+            .ambient_flash_gradient
+            .unwrap_or(model.config.ambient_flash_gradient);
         if flash_factor != 1.0 {
             let factor = of::<T>(flash_factor);
             for (r, energy) in rays.energy.iter().enumerate() {

@@ -301,6 +301,19 @@ impl Trainer {
         self.share_of_planned_steps(self.config.optim.metallic_hold)
     }
 
+    /// The factor on the flash photos' ambient gradient at `step`:
+    /// `model.ambient_flash_gradient_late` from
+    /// `model.ambient_flash_gradient_late_from` × the planned steps (rounded
+    /// up) on, `model.ambient_flash_gradient` before.
+    pub fn ambient_flash_gradient(&self, step: u64) -> f64 {
+        let model = &self.config.model;
+        if step >= self.share_of_planned_steps(model.ambient_flash_gradient_late_from) {
+            model.ambient_flash_gradient_late
+        } else {
+            model.ambient_flash_gradient
+        }
+    }
+
     /// The first step whose parameters enter the average:
     /// `optim.average_from` × the planned steps, rounded up.
     pub fn average_start_step(&self) -> u64 {
@@ -492,6 +505,7 @@ impl Trainer {
             alpha_eps: wildlight_render::neus::ALPHA_EPS,
             metallic_hold: (step < self.metallic_hold_steps())
                 .then(|| f64::from(self.config.model.init_material[METALLIC])),
+            ambient_flash_gradient: Some(self.ambient_flash_gradient(step)),
         };
         let rays = RayInputs {
             origins: &self.batch.origins,

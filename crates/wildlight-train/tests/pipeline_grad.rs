@@ -81,6 +81,7 @@ fn setup() -> Setup {
             for_backward: true,
             alpha_eps: wildlight_render::neus::ALPHA_EPS,
             metallic_hold: None,
+            ambient_flash_gradient: None,
         },
     }
 }
@@ -395,4 +396,13 @@ fn the_flash_rays_share_of_the_ambient_gradient_is_scaled() {
     }
     assert_eq!(full.log_gain, none.log_gain, "the flash term is untouched");
     assert!(full.log_gain.abs() > 1e-6);
+
+    // The pass's own factor (the trainer's late schedule) overrides the
+    // model's: 0 in the pass under a model at 1 is the model at 0.
+    let mut overridden = setup();
+    overridden.settings.ambient_flash_gradient = Some(0.0);
+    let model = prepared_model(&tiny_config());
+    let mut grads = model.new_grads();
+    loss(&model, &overridden, Some(&mut grads));
+    assert_eq!(ambient_gradients(&grads), a_none, "the pass's factor wins");
 }

@@ -581,6 +581,25 @@ fn metallic_is_held_for_its_share_of_the_run() {
     assert_ne!(biases(&trainer).0, start.0, "metallic free after the hold");
 }
 
+/// `model.ambient_flash_gradient_late` takes over from its share of the
+/// planned steps: 0.75 of 8 planned steps is step 6 on.
+#[test]
+fn the_late_ambient_flash_gradient_starts_at_its_share_of_the_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let dataset = capture(dir.path(), 4, 16);
+    let mut config = small_config(8);
+    config.model.ambient_flash_gradient = 0.5;
+    config.model.ambient_flash_gradient_late = 0.25;
+    config.model.ambient_flash_gradient_late_from = 0.75;
+    let trainer = Trainer::new(config.clone(), TrainingRays::new(&dataset)).unwrap();
+    let factors: Vec<f64> = (0..8).map(|s| trainer.ambient_flash_gradient(s)).collect();
+    assert_eq!(factors, [0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.25, 0.25]);
+    // By default (from 1) the late factor never applies.
+    config.model.ambient_flash_gradient_late_from = 1.0;
+    let trainer = Trainer::new(config, TrainingRays::new(&dataset)).unwrap();
+    assert!((0..8).all(|s| trainer.ambient_flash_gradient(s) == 0.5));
+}
+
 /// The per-field learning-rate factors reach the optimiser: with the
 /// material field's factors at 0 its grid and MLP stay as initialised while
 /// the SDF and the ambient field learn; the factor 1 (the default) lets the
