@@ -646,19 +646,20 @@ pub struct ModelConfig {
     /// over for the end of the run.
     pub ambient_flash_gradient: f64,
     /// The factor on the flash photos' ambient gradient from
-    /// `ambient_flash_gradient_late_from` × the planned steps on (rounded
-    /// up), in [0, 1] (0 by default since session 26);
-    /// `ambient_flash_gradient` before. Late in a run the ambient fields
-    /// have learnt the room, and at 0 what the flash adds to a photo must
-    /// be explained by the flash term alone. Against 1 throughout, each pair the same run up to
-    /// the switch at 0.8 of the run: at 3,000 steps base colour 25.33
-    /// against 25.12 dB on seed 0 and 24.48 against 24.32 dB on seed 1,
-    /// novel views 27.44 / 29.45 against 27.51 / 29.40 dB and 27.41 / 29.10
-    /// against 27.47 / 29.06 dB (flash / no flash); over the last 4,894 of
-    /// 14,026 steps (seed 0, both resumed from the 20-minute snapshot of a
-    /// 30-minute run) 24.65 against 24.42 dB, 28.38 / 30.41 against 28.31 /
-    /// 30.28 dB, mesh 0.00152 against 0.00150. From 0.6 of the run (3,000
-    /// steps, seed 0): 25.43 dB, 27.32 / 29.39 dB.
+    /// `ambient_flash_gradient_late_from` × the planned steps on (rounded up),
+    /// in [0, 1] (0 by default since session 26); `ambient_flash_gradient`
+    /// before. Late in a run the ambient fields have learnt the room, and at 0
+    /// what the flash adds to a photo must be explained by the flash term
+    /// alone. Against 1 throughout, each pair the same run up to the switch at
+    /// 0.8 of the run: at 3,000 steps base colour 25.33 against 25.12 dB on
+    /// seed 0, 24.48 against 24.32 dB on seed 1 and 22.20 against 22.11 dB on
+    /// seed 2, novel views 27.44 / 29.45 against 27.51 / 29.40 dB, 27.41 /
+    /// 29.10 against 27.47 / 29.06 dB and 27.41 / 29.25 against 27.47 / 29.21
+    /// dB (flash / no flash); over the last 4,894 of 14,026 steps (seed 0, both
+    /// resumed from the 20-minute snapshot of a 30-minute run) 24.65 against
+    /// 24.42 dB, 28.38 / 30.41 against 28.31 / 30.28 dB, mesh 0.00152 against
+    /// 0.00150. From 0.6 of the run (3,000 steps, seed 0): 25.43 dB, 27.32 /
+    /// 29.39 dB.
     pub ambient_flash_gradient_late: f64,
     /// The share of the planned steps after which
     /// `ambient_flash_gradient_late` applies (0.8 by default; 1: never).
