@@ -1108,11 +1108,19 @@ impl TrainConfig {
         {
             return bad("model.init_material", "every value must be in (0, 1)");
         }
-        if !(0.0..=1.0).contains(&self.model.ambient_flash_gradient) {
-            return bad("model.ambient_flash_gradient", "must be in [0, 1]");
-        }
-        if !(0.0..=1.0).contains(&self.model.ambient_flash_gradient_late) {
-            return bad("model.ambient_flash_gradient_late", "must be in [0, 1]");
+        for (name, v) in [
+            (
+                "model.ambient_flash_gradient",
+                self.model.ambient_flash_gradient,
+            ),
+            (
+                "model.ambient_flash_gradient_late",
+                self.model.ambient_flash_gradient_late,
+            ),
+        ] {
+            if !(0.0..=1.0).contains(&v) {
+                return bad(name, "must be in [0, 1]");
+            }
         }
         if !(1..=4).contains(&self.model.ambient_sh_bands) {
             return bad("model.ambient_sh_bands", "must be 1, 2, 3 or 4");

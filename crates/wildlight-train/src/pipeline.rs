@@ -92,8 +92,10 @@ pub struct PassSettings {
     /// material field through it); `None`: the field's own.
     pub metallic_hold: Option<f64>,
     /// The factor on the gradient the flash photos send to the ambient
-    /// term; `None`: the model's `ambient_flash_gradient`.
-    pub ambient_flash_gradient: Option<f64>,
+    /// term, in [0, 1] (the trainer's schedule of
+    /// `model.ambient_flash_gradient` and its late value; 1 leaves the
+    /// gradient whole, and a pass without a backward ignores it).
+    pub ambient_flash_gradient: f64,
 }
 
 /// Buffers and results of a pass.
@@ -402,9 +404,7 @@ impl<T: Float + Default> Pipeline<T> {
         // The flash photos' share of the ambient term's gradient, scaled (at
         // 0 their ambient term is a given). In place: the flash term has
         // taken its gradient above, and nothing reads ∂L/∂c_k after this.
-        let flash_factor = settings
-            .ambient_flash_gradient
-            .unwrap_or(model.config.ambient_flash_gradient);
+        let flash_factor = settings.ambient_flash_gradient;
         if flash_factor != 1.0 {
             let factor = of::<T>(flash_factor);
             for (r, energy) in rays.energy.iter().enumerate() {

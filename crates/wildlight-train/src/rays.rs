@@ -206,6 +206,22 @@ impl TrainingRays {
         }
     }
 
+    /// Repeats `draw` until [`Self::keep_draw`] keeps the view `view_of`
+    /// gives for its result (the first draw, without view weights).
+    fn draw_kept<R: Rng, X: Copy>(
+        &self,
+        rng: &mut R,
+        draw: impl Fn(&mut R) -> X,
+        view_of: impl Fn(X) -> u32,
+    ) -> X {
+        loop {
+            let x = draw(rng);
+            if self.keep_draw(rng, view_of(x)) {
+                return x;
+            }
+        }
+    }
+
     /// Collects the silhouette band: the pixels within `band` pixels of a
     /// mask edge, on either side, of every view with a mask (none when
     /// `band` is 0).
@@ -289,12 +305,11 @@ impl TrainingRays {
         let n_band = count(!self.silhouette.is_empty(), shares.silhouette).min(n - n_fg);
         for (pixels, draws) in [(&self.foreground, n_fg), (&self.silhouette, n_band)] {
             for _ in 0..draws {
-                let (v, p) = loop {
-                    let (v, p) = pixels[rng.random_range(0..pixels.len())];
-                    if self.keep_draw(rng, v) {
-                        break (v, p);
-                    }
-                };
+                let (v, p) = self.draw_kept(
+                    rng,
+                    |rng| pixels[rng.random_range(0..pixels.len())],
+                    |(v, _)| v,
+                );
                 out.push(v, &self.views[v as usize], p);
             }
         }
@@ -305,12 +320,11 @@ impl TrainingRays {
             map.draw(rng, n_err, |v, p| out.push(v, &self.views[v as usize], p));
         }
         for _ in out.len()..n {
-            let v = loop {
-                let v = rng.random_range(0..self.views.len());
-                if self.keep_draw(rng, v as u32) {
-                    break v;
-                }
-            };
+            let v = self.draw_kept(
+                rng,
+                |rng| rng.random_range(0..self.views.len()),
+                |v| v as u32,
+            );
             let view = &self.views[v];
             let p = rng.random_range(0..view.width * view.height);
             out.push(v as u32, view, p);

@@ -38,7 +38,7 @@ pub fn render_view(
         for_backward: false,
         alpha_eps: wildlight_render::neus::ALPHA_EPS,
         metallic_hold: None,
-        ambient_flash_gradient: None,
+        ambient_flash_gradient: 1.0,
     };
     let (mut origins, mut dirs) = (Vec::new(), Vec::new());
     for start in (0..n).step_by(RENDER_CHUNK) {

@@ -505,7 +505,7 @@ impl Trainer {
             alpha_eps: wildlight_render::neus::ALPHA_EPS,
             metallic_hold: (step < self.metallic_hold_steps())
                 .then(|| f64::from(self.config.model.init_material[METALLIC])),
-            ambient_flash_gradient: Some(self.ambient_flash_gradient(step)),
+            ambient_flash_gradient: self.ambient_flash_gradient(step),
         };
         let rays = RayInputs {
             origins: &self.batch.origins,

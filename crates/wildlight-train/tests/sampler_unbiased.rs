@@ -72,7 +72,7 @@ fn fast_sampler_matches_dense_sampling_through_the_fields() {
         for_backward: false,
         alpha_eps: 0.0,
         metallic_hold: None,
-        ambient_flash_gradient: None,
+        ambient_flash_gradient: 1.0,
     };
 
     let mut fast = Pipeline::new(Sampler::new(config.sampling.sampler()).expect("sampler"));
