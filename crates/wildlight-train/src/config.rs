@@ -43,6 +43,15 @@ pub struct TrainConfig {
     /// 26.91 / 29.13 dB: the views and the shape gain a little, base colour
     /// loses more.
     pub error_fraction: f64,
+    /// Share of the planned steps after which the error-guided draws start
+    /// (0, the default: from the first step). Before it their share of the
+    /// batch goes to the foreground draws, while the error map is measured
+    /// from the first step, so the draws start from a settled estimate.
+    /// At 3,000 steps (seed 0; defaults 25.33 dB, views 27.44 / 29.45 dB)
+    /// 0.1 of the batch from 0.8 of the run gave 25.20 dB and 27.53 /
+    /// 29.50 dB: a third of the flash views' gain of draws from the start
+    /// (session 24) for a seventh of their cost in base colour.
+    pub error_from: f64,
     /// Side of the error map's tiles in pixels.
     pub error_tile: u32,
     /// How often a flash image's pixel is drawn against a no-flash image's,
@@ -78,6 +87,7 @@ impl Default for TrainConfig {
             silhouette_fraction: 0.2,
             silhouette_band: 2,
             error_fraction: 0.0,
+            error_from: 0.0,
             error_tile: 4,
             flash_view_weight: 1.0,
             eikonal_points: 512,
@@ -262,6 +272,30 @@ pub struct LossConfig {
     /// metals have had time to climb past one half before the prior pushes
     /// each point to its nearer end.
     pub binary_metallic_start: f64,
+    /// When the binary-metallic prior stops, as a fraction of the planned
+    /// steps (1, the default: it stays on to the end). Before 1 it is a
+    /// push that is then released: a part that the push carried into the
+    /// dielectric basin stays there only if the photos agree. At 3,000
+    /// steps (seed 0, defaults 25.33 dB) λ 0.3 from 0.5 to 0.7 left the
+    /// terracotta a dielectric to the end (metallic 0.00, base colour
+    /// 0.52 0.30 0.21 for 0.50 0.28 0.18) but the metals darker (21.07 dB
+    /// with the ceiling at 0.5, the brass at metallic 0.72; 23.85 dB
+    /// two-sided, the brass at 0.97 with base colour 0.62 0.43 0.27 for
+    /// 0.85 0.60 0.30), and they did not recover after the release
+    /// (docs/benchmark-log.md, session 28).
+    pub binary_metallic_end: f64,
+    /// Hash-table levels of at least this many cells per axis are the only
+    /// parameters of the material field that the binary-metallic prior
+    /// moves (0, the default: every level and the network). A local push:
+    /// the network and the coarse levels, shared by a part and its
+    /// neighbours, do not carry the metals along with the part pushed.
+    /// At 3,000 steps (seed 0, λ 0.3 from 0.5 to 0.7 of the run) levels of
+    /// 100 cells or more did not move the terracotta (metallic 0.37 for
+    /// 0.38 without the prior), nor did λ 1 on levels of 50 or more; every
+    /// level without the network moved it to 0.13 and darkened the metals
+    /// (24.42 against 25.33 dB): the terracotta and the brass beside it
+    /// share the coarse levels.
+    pub binary_metallic_min_resolution: u32,
     /// The binary-metallic prior leaves out the points whose metallic
     /// value is above this (1, the default: none left out; 0.5: it only
     /// pushes partial metals down to 0, not metals up to 1). At 0.5 (3,000
@@ -451,6 +485,8 @@ impl Default for LossConfig {
             normal_difference: NormalDifference::Second,
             binary_metallic: 0.0,
             binary_metallic_start: 0.0,
+            binary_metallic_end: 1.0,
+            binary_metallic_min_resolution: 0,
             binary_metallic_ceiling: 1.0,
             visual_hull: 1.0,
             visual_hull_dilation: 3,
@@ -945,6 +981,7 @@ impl TrainConfig {
             );
         }
         for (name, v) in [
+            ("error_from", self.error_from),
             ("loss.color_l2_start", self.loss.color_l2_start),
             (
                 "loss.binary_metallic_start",
@@ -954,6 +991,7 @@ impl TrainConfig {
                 "loss.binary_metallic_ceiling",
                 self.loss.binary_metallic_ceiling,
             ),
+            ("loss.binary_metallic_end", self.loss.binary_metallic_end),
             ("optim.metallic_hold", self.optim.metallic_hold),
             ("optim.average_from", self.optim.average_from),
             (
@@ -989,6 +1027,7 @@ impl TrainConfig {
                 "loss.binary_metallic_start",
                 self.loss.binary_metallic_start,
             ),
+            ("loss.binary_metallic_end", self.loss.binary_metallic_end),
             ("loss.eikonal", self.loss.eikonal),
             ("loss.mask", self.loss.mask),
             ("loss.material_smoothness", self.loss.material_smoothness),
@@ -1027,6 +1066,7 @@ impl TrainConfig {
                 "loss.binary_metallic_ceiling",
                 self.loss.binary_metallic_ceiling,
             ),
+            ("error_from", self.error_from),
             ("loss.visual_hull", self.loss.visual_hull),
             ("optim.metallic_hold", self.optim.metallic_hold),
             ("optim.average_from", self.optim.average_from),
@@ -1262,6 +1302,19 @@ mod tests {
                 .contains("loss.binary_metallic_ceiling")
         );
         c.loss.binary_metallic_ceiling = 0.5;
+        // The prior's end and the error-guided draws' start are fractions too.
+        for bad in [1.5, -0.1, f64::NAN] {
+            c.loss.binary_metallic_end = bad;
+            assert!(
+                c.validate()
+                    .unwrap_err()
+                    .contains("loss.binary_metallic_end")
+            );
+            c.loss.binary_metallic_end = 1.0;
+            c.error_from = bad;
+            assert!(c.validate().unwrap_err().contains("error_from"));
+            c.error_from = 0.0;
+        }
         for bad_factor in [-0.5, 1.5, f64::NAN] {
             c.model.ambient_flash_gradient = bad_factor;
             assert!(

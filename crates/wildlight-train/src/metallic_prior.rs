@@ -20,6 +20,12 @@
 //! leaves the points with m_j > c out of the sum (they still count in m):
 //! at c = 0.5 the prior only pushes partial metals down to 0, and the
 //! metals are left to the photographs.
+//!
+//! A local push (`loss.binary_metallic_min_resolution` R > 0) gives the
+//! gradient only to the hash-table levels of at least R cells per axis:
+//! the network's weights and the coarse levels, which every point of a
+//! part and its neighbours share, receive none of it, so that pushing one
+//! part does not carry the parts beside it along.
 
 use crate::float::{Float, of, to_f64};
 use wildlight_fields::{FieldContext, FieldGrads, NeuralField};
@@ -30,6 +36,8 @@ use wildlight_material::{METALLIC, PARAM_COUNT};
 pub struct BinaryMetallic<T> {
     ctx: FieldContext<T>,
     d_out: Vec<T>,
+    /// The whole gradient of a local push, before its fine levels are kept.
+    local: Option<FieldGrads<T>>,
 }
 
 impl<T: Float + Default> BinaryMetallic<T> {
@@ -37,13 +45,16 @@ impl<T: Float + Default> BinaryMetallic<T> {
     /// respect to the material field's parameters into `grads`; points
     /// whose metallic value is above `ceiling` contribute nothing. Returns
     /// the unweighted mean of m (1 − m) over the points at or below it
-    /// (divided by all the points).
+    /// (divided by all the points). With `local_from = Some(k)` only the
+    /// hash-table parameters from index k on receive the gradient (the
+    /// network and the entries before k none).
     pub fn forward_backward(
         &mut self,
         field: &NeuralField<T>,
         points: &[[T; 3]],
         weight: T,
         ceiling: T,
+        local_from: Option<usize>,
         grads: &mut FieldGrads<T>,
     ) -> f64 {
         let m = points.len();
@@ -70,7 +81,17 @@ impl<T: Float + Default> BinaryMetallic<T> {
             sum += to_f64(metal * (T::ONE - metal));
             d[METALLIC] = scale * (T::ONE - of::<T>(2.0) * metal);
         }
-        field.backward(&mut self.ctx, &self.d_out, grads, None, None);
+        match local_from {
+            None => field.backward(&mut self.ctx, &self.d_out, grads, None, None),
+            Some(first) => {
+                let local = self.local.get_or_insert_with(|| field.new_grads());
+                local.zero();
+                field.backward(&mut self.ctx, &self.d_out, local, None, None);
+                for (g, l) in grads.grid[first..].iter_mut().zip(&local.grid[first..]) {
+                    *g += *l;
+                }
+            }
+        }
         sum / m as f64
     }
 }

@@ -476,10 +476,18 @@ impl Trainer {
         }
         let cfg = &self.config;
         let mut rng = Pcg64::seed_from_u64(mix(cfg.seed, step, 1));
-        let shares = RayShares {
-            foreground: cfg.foreground_fraction,
-            silhouette: cfg.silhouette_fraction,
-            error: cfg.error_fraction,
+        let shares = if step >= self.share_of_planned_steps(cfg.error_from) {
+            RayShares {
+                foreground: cfg.foreground_fraction,
+                silhouette: cfg.silhouette_fraction,
+                error: cfg.error_fraction,
+            }
+        } else {
+            RayShares {
+                foreground: cfg.foreground_fraction + cfg.error_fraction,
+                silhouette: cfg.silhouette_fraction,
+                error: 0.0,
+            }
         };
         self.rays
             .draw(&mut rng, cfg.batch_rays, shares, &mut self.batch);
@@ -659,7 +667,8 @@ impl Trainer {
     /// (crate::normal_smoothness), each point paired with a point offset
     /// uniformly within `loss.smoothness_radius` per axis, and the
     /// binary-metallic prior (crate::metallic_prior) at the points
-    /// themselves (from [`Self::binary_metallic_start_step`] on); adds their
+    /// themselves (from [`Self::binary_metallic_start_step`] until
+    /// `loss.binary_metallic_end` × the planned steps); adds their
     /// gradients and returns their unweighted values (0 for a prior that is
     /// off, or not yet on). The offsets are drawn only when a
     /// smoothness prior is on, so a run with both off draws the same random
@@ -667,17 +676,28 @@ impl Trainer {
     fn surface_priors(&mut self, rng: &mut Pcg64, fd_step: f64, step: u64) -> (f64, f64, f64) {
         let loss = &self.config.loss;
         let smooth = loss.material_smoothness > 0.0 || loss.normal_smoothness > 0.0;
-        let binary_on = loss.binary_metallic > 0.0 && step >= self.binary_metallic_start_step();
+        let binary_on = loss.binary_metallic > 0.0
+            && step >= self.binary_metallic_start_step()
+            && step < self.share_of_planned_steps(loss.binary_metallic_end);
         if !smooth && !binary_on {
             return (0.0, 0.0, 0.0);
         }
         let (centres, normals) = self.pipeline.surface_points(0.5);
         let binary = if binary_on {
+            let min_resolution = loss.binary_metallic_min_resolution;
+            let local_from = (min_resolution > 0).then(|| {
+                let grid = &self.model.material.grid;
+                grid.levels()
+                    .iter()
+                    .find(|level| level.resolution >= min_resolution)
+                    .map_or(grid.n_params(), |level| level.param_offset)
+            });
             self.binary_metallic.forward_backward(
                 &self.model.material,
                 &centres,
                 loss.binary_metallic as f32,
                 loss.binary_metallic_ceiling as f32,
+                local_from,
                 &mut self.grads.material,
             )
         } else {

@@ -17,7 +17,7 @@ fn loss(model: &Model<f64>, grads: Option<&mut wildlight_fields::FieldGrads<f64>
     let mut term = BinaryMetallic::<f64>::default();
     let mut scratch = model.material.new_grads();
     let g = grads.unwrap_or(&mut scratch);
-    WEIGHT * term.forward_backward(&model.material, &POINTS, WEIGHT, 1.0, g)
+    WEIGHT * term.forward_backward(&model.material, &POINTS, WEIGHT, 1.0, None, g)
 }
 
 fn metallic(model: &Model<f64>) -> Vec<f64> {
@@ -85,7 +85,7 @@ fn binary_metallic_leaves_out_points_above_its_ceiling() {
         / m.len() as f64;
     let mut term = BinaryMetallic::<f64>::default();
     let mut g = model.material.new_grads();
-    let value = term.forward_backward(&model.material, &POINTS, WEIGHT, ceiling, &mut g);
+    let value = term.forward_backward(&model.material, &POINTS, WEIGHT, ceiling, None, &mut g);
     assert!(
         by_hand > 0.0 && (value - by_hand).abs() < 1e-14,
         "{value} vs {by_hand}"
@@ -95,12 +95,56 @@ fn binary_metallic_leaves_out_points_above_its_ceiling() {
         &POINTS,
         WEIGHT,
         1.0,
+        None,
         &mut model.material.new_grads(),
     );
     assert!(value < full, "{value} vs {full}");
     // Below every point: no value and no gradient.
     let mut g = model.material.new_grads();
-    let none = term.forward_backward(&model.material, &POINTS, WEIGHT, sorted[0] - 1e-9, &mut g);
+    let none = term.forward_backward(
+        &model.material,
+        &POINTS,
+        WEIGHT,
+        sorted[0] - 1e-9,
+        None,
+        &mut g,
+    );
     assert_eq!(none, 0.0);
     assert!(g.grid.iter().chain(&g.mlp).all(|d| *d == 0.0));
+}
+
+/// A local push gives exactly the full gradient to the hash entries from
+/// the given index on, and nothing to the entries before it or to the
+/// network; it adds to what `grads` already holds.
+#[test]
+fn a_local_push_moves_only_the_fine_levels() {
+    let model = tiny_material_model();
+    let mut term = BinaryMetallic::<f64>::default();
+    let mut full = model.material.new_grads();
+    let value = term.forward_backward(&model.material, &POINTS, WEIGHT, 1.0, None, &mut full);
+    let levels = model.material.grid.levels();
+    let first = levels[levels.len() / 2].param_offset;
+    assert!(first > 0 && first < full.grid.len());
+    let mut local = model.material.new_grads();
+    local.grid.fill(0.5);
+    let local_value = term.forward_backward(
+        &model.material,
+        &POINTS,
+        WEIGHT,
+        1.0,
+        Some(first),
+        &mut local,
+    );
+    assert_eq!(value, local_value);
+    assert!(local.grid[..first].iter().all(|d| *d == 0.5));
+    assert!(local.mlp.iter().all(|d| *d == 0.0));
+    let moved = full.grid[first..]
+        .iter()
+        .zip(&local.grid[first..])
+        .filter(|(f, l)| {
+            assert_eq!(**l, 0.5 + **f);
+            **f != 0.0
+        })
+        .count();
+    assert!(moved > 0, "no fine entry moved");
 }

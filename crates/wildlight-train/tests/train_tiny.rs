@@ -142,7 +142,31 @@ fn resumed_training_with_error_guided_draws_continues_exactly() {
         c.foreground_fraction = 0.4;
         c.error_fraction = 0.4;
         c.error_tile = 3;
+        c.error_from = 0.25;
     });
+}
+
+/// Before `error_from` of the run the error-guided share is drawn from the
+/// foreground, so the first steps are those of a run without error-guided
+/// draws whose foreground share holds both; from then on the draws follow
+/// the error map measured since the first step, and the runs part.
+#[test]
+fn error_guided_draws_start_at_their_fraction_of_the_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let dataset = capture(dir.path(), 6, 24);
+    let losses = |error: f64| {
+        let mut config = small_config(8);
+        config.batch_rays = 96;
+        config.foreground_fraction = 0.8 - error;
+        config.error_fraction = error;
+        // 0.5 of 8 planned steps: from step 4 on
+        config.error_from = 0.5;
+        let mut trainer = Trainer::new(config, TrainingRays::new(&dataset)).unwrap();
+        (0..6).map(|_| trainer.step().loss).collect::<Vec<f64>>()
+    };
+    let (plain, guided) = (losses(0.0), losses(0.4));
+    assert_eq!(plain[..4], guided[..4]);
+    assert_ne!(plain[4], guided[4]);
 }
 
 /// The visual-hull prior draws its points from cells chosen by the
@@ -490,6 +514,28 @@ fn the_binary_metallic_prior_starts_at_its_fraction_of_the_run() {
     let values: Vec<f64> = (0..6).map(|_| trainer.step().binary_metallic).collect();
     assert!(values[..3].iter().all(|v| *v == 0.0), "{values:?}");
     assert!(values[3..].iter().all(|v| *v > 0.0), "{values:?}");
+}
+
+/// With `loss.binary_metallic_end` below 1 the prior is a push that is
+/// released: on from ⌈0.25 · 8⌉ = 2 until ⌈0.6 · 8⌉ = 5, off before and
+/// after.
+#[test]
+fn the_binary_metallic_prior_stops_at_its_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let dataset = capture(dir.path(), 6, 24);
+    let mut config = small_config(8);
+    config.batch_rays = 96;
+    config.loss.binary_metallic = 0.1;
+    config.loss.binary_metallic_start = 0.25;
+    config.loss.binary_metallic_end = 0.6;
+    let mut trainer = Trainer::new(config, TrainingRays::new(&dataset)).unwrap();
+    let values: Vec<f64> = (0..8).map(|_| trainer.step().binary_metallic).collect();
+    let on: Vec<bool> = values.iter().map(|v| *v > 0.0).collect();
+    assert_eq!(
+        on,
+        [false, false, true, true, true, false, false, false],
+        "{values:?}"
+    );
 }
 
 /// `loss.wide_smoothness_parameters` compares the named parameters at the
