@@ -1303,17 +1303,14 @@ mod tests {
         );
         c.loss.binary_metallic_ceiling = 0.5;
         // The prior's end and the error-guided draws' start are fractions too.
+        let rejected = |c: &TrainConfig, name: &str| c.validate().unwrap_err().contains(name);
         for bad in [1.5, -0.1, f64::NAN] {
-            c.loss.binary_metallic_end = bad;
-            assert!(
-                c.validate()
-                    .unwrap_err()
-                    .contains("loss.binary_metallic_end")
-            );
-            c.loss.binary_metallic_end = 1.0;
-            c.error_from = bad;
-            assert!(c.validate().unwrap_err().contains("error_from"));
-            c.error_from = 0.0;
+            let mut end = c.clone();
+            end.loss.binary_metallic_end = bad;
+            assert!(rejected(&end, "loss.binary_metallic_end"));
+            let mut from = c.clone();
+            from.error_from = bad;
+            assert!(rejected(&from, "error_from"));
         }
         for bad_factor in [-0.5, 1.5, f64::NAN] {
             c.model.ambient_flash_gradient = bad_factor;

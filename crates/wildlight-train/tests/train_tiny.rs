@@ -497,21 +497,31 @@ fn planned_total_steps_shape_the_decay_and_survive_a_checkpoint() {
     assert_eq!(resumed.planned_total_steps(), 12);
 }
 
-/// The binary-metallic prior applies from `loss.binary_metallic_start` of
-/// the planned steps on: its value is 0 on the steps before, positive on the
-/// steps after (every metallic value lies strictly inside (0, 1)).
-#[test]
-fn the_binary_metallic_prior_starts_at_its_fraction_of_the_run() {
+/// The binary-metallic prior's value at each of `steps` steps of an
+/// 8-step plan, with the prior on from `start` until `end` of the run, and
+/// its first step.
+fn binary_metallic_by_step(start: f64, end: f64, steps: usize) -> (u64, Vec<f64>) {
     let dir = tempfile::tempdir().unwrap();
     let dataset = capture(dir.path(), 6, 24);
     let mut config = small_config(8);
     config.batch_rays = 96;
     config.loss.binary_metallic = 0.1;
-    // 0.3 of 8 planned steps: from step ⌈2.4⌉ = 3 on
-    config.loss.binary_metallic_start = 0.3;
+    config.loss.binary_metallic_start = start;
+    config.loss.binary_metallic_end = end;
     let mut trainer = Trainer::new(config, TrainingRays::new(&dataset)).unwrap();
-    assert_eq!(trainer.binary_metallic_start_step(), 3);
-    let values: Vec<f64> = (0..6).map(|_| trainer.step().binary_metallic).collect();
+    let first = trainer.binary_metallic_start_step();
+    let values = (0..steps).map(|_| trainer.step().binary_metallic).collect();
+    (first, values)
+}
+
+/// The binary-metallic prior applies from `loss.binary_metallic_start` of
+/// the planned steps on: its value is 0 on the steps before, positive on the
+/// steps after (every metallic value lies strictly inside (0, 1)).
+#[test]
+fn the_binary_metallic_prior_starts_at_its_fraction_of_the_run() {
+    // 0.3 of 8 planned steps: from step ⌈2.4⌉ = 3 on
+    let (first, values) = binary_metallic_by_step(0.3, 1.0, 6);
+    assert_eq!(first, 3);
     assert!(values[..3].iter().all(|v| *v == 0.0), "{values:?}");
     assert!(values[3..].iter().all(|v| *v > 0.0), "{values:?}");
 }
@@ -521,15 +531,7 @@ fn the_binary_metallic_prior_starts_at_its_fraction_of_the_run() {
 /// after.
 #[test]
 fn the_binary_metallic_prior_stops_at_its_end() {
-    let dir = tempfile::tempdir().unwrap();
-    let dataset = capture(dir.path(), 6, 24);
-    let mut config = small_config(8);
-    config.batch_rays = 96;
-    config.loss.binary_metallic = 0.1;
-    config.loss.binary_metallic_start = 0.25;
-    config.loss.binary_metallic_end = 0.6;
-    let mut trainer = Trainer::new(config, TrainingRays::new(&dataset)).unwrap();
-    let values: Vec<f64> = (0..8).map(|_| trainer.step().binary_metallic).collect();
+    let (_, values) = binary_metallic_by_step(0.25, 0.6, 8);
     let on: Vec<bool> = values.iter().map(|v| *v > 0.0).collect();
     assert_eq!(
         on,
