@@ -476,18 +476,16 @@ impl Trainer {
         }
         let cfg = &self.config;
         let mut rng = Pcg64::seed_from_u64(mix(cfg.seed, step, 1));
-        let shares = if step >= self.share_of_planned_steps(cfg.error_from) {
-            RayShares {
-                foreground: cfg.foreground_fraction,
-                silhouette: cfg.silhouette_fraction,
-                error: cfg.error_fraction,
-            }
+        // Before `error_from` the error-guided share is drawn from the foreground.
+        let error = if step >= self.share_of_planned_steps(cfg.error_from) {
+            cfg.error_fraction
         } else {
-            RayShares {
-                foreground: cfg.foreground_fraction + cfg.error_fraction,
-                silhouette: cfg.silhouette_fraction,
-                error: 0.0,
-            }
+            0.0
+        };
+        let shares = RayShares {
+            foreground: cfg.foreground_fraction + (cfg.error_fraction - error),
+            silhouette: cfg.silhouette_fraction,
+            error,
         };
         self.rays
             .draw(&mut rng, cfg.batch_rays, shares, &mut self.batch);
