@@ -17,12 +17,15 @@ fn arrays(model: &Model) -> Vec<&[f32]> {
     let mut out: Vec<&[f32]> = vec![
         &model.sdf.field.grid.params,
         &model.sdf.field.mlp.params,
-        &model.material.grid.params,
-        &model.material.mlp.params,
+        &model.material.params.grid.params,
+        &model.material.params.mlp.params,
         &model.ambient.grid.params,
         &model.ambient.mlp.params,
     ];
-    if let Some(f) = &model.ambient_specular {
+    for f in [&model.ambient_specular, &model.material.metallic]
+        .into_iter()
+        .flatten()
+    {
         out.push(&f.grid.params);
         out.push(&f.mlp.params);
     }
@@ -34,12 +37,15 @@ fn arrays_mut(model: &mut Model) -> Vec<&mut [f32]> {
     let mut out: Vec<&mut [f32]> = vec![
         &mut model.sdf.field.grid.params,
         &mut model.sdf.field.mlp.params,
-        &mut model.material.grid.params,
-        &mut model.material.mlp.params,
+        &mut model.material.params.grid.params,
+        &mut model.material.params.mlp.params,
         &mut model.ambient.grid.params,
         &mut model.ambient.mlp.params,
     ];
-    if let Some(f) = &mut model.ambient_specular {
+    for f in [&mut model.ambient_specular, &mut model.material.metallic]
+        .into_iter()
+        .flatten()
+    {
         out.push(&mut f.grid.params);
         out.push(&mut f.mlp.params);
     }

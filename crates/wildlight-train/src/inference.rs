@@ -3,6 +3,7 @@
 //! (`OUT/<kind>/NNN.exr` + `OUT/views.json`).
 
 use crate::config::TrainConfig;
+use crate::material_field::MaterialContext;
 use crate::model::Model;
 use crate::pipeline::{Pipeline, eval_sdf};
 use crate::render_view::render_view;
@@ -169,8 +170,8 @@ impl wildlight_export::FieldSource for ExportSource<'_> {
     }
 
     fn material(&self, points: &[[f32; 3]], out: &mut [[f32; 9]]) {
-        let mut ctx = FieldContext::new();
-        self.model.material.forward(points, &[], &mut ctx);
+        let mut ctx = MaterialContext::new();
+        self.model.material.forward(points, &mut ctx);
         for (o, row) in out.iter_mut().zip(ctx.output().chunks_exact(9)) {
             o.copy_from_slice(row);
         }

@@ -4,6 +4,7 @@
 //!
 //! - [`config`]: every setting, with defaults, TOML in and out;
 //! - [`model`]: the fields and scalars, and their gradients;
+//! - [`material_field`]: the fields behind the material parameters Θ;
 //! - [`rays`]: drawing training rays across all images;
 //! - [`pipeline`]: one differentiable pass over a batch of rays;
 //! - [`ambient`]: the ambient term of a pass, in its two forms;
@@ -26,6 +27,7 @@ pub mod error_map;
 pub mod float;
 pub mod inference;
 pub mod loss;
+pub mod material_field;
 pub mod metallic_prior;
 pub mod model;
 pub mod normal_smoothness;

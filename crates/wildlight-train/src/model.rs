@@ -5,8 +5,9 @@
 use crate::ambient::{SPECULAR_EXTRA_INPUTS, ambient_extra_inputs};
 use crate::config::{AmbientModel, FieldSize, ModelConfig, ROOM_FEATURES};
 use crate::float::{Float, finite};
+use crate::material_field::{MaterialField, MaterialGrads};
 use wildlight_fields::{Activation, FieldGrads, NeuralField, NeuralFieldConfig, SdfField};
-use wildlight_material::PARAM_COUNT;
+use wildlight_material::{METALLIC, PARAM_COUNT};
 
 /// The learned model, generic over the float type: `f32` for training and
 /// rendering, `f64` for the finite-difference checks of the whole pipeline.
@@ -17,7 +18,7 @@ pub struct Model<T = f32> {
     /// Signed distance φ and geometry features.
     pub sdf: SdfField<T>,
     /// Material parameters Θ = sigmoid(outputs) (SPEC §3).
-    pub material: NeuralField<T>,
+    pub material: MaterialField<T>,
     /// Ambient radiance a ≥ 0 (softplus outputs); with
     /// [`AmbientModel::DiffuseSpecular`], the diffuse irradiance E_d.
     pub ambient: NeuralField<T>,
@@ -38,7 +39,7 @@ pub struct ModelGrads<T = f32> {
     /// Of the SDF field.
     pub sdf: FieldGrads<T>,
     /// Of the material field.
-    pub material: FieldGrads<T>,
+    pub material: MaterialGrads<T>,
     /// Of the ambient field.
     pub ambient: FieldGrads<T>,
     /// Of the ambient specular field, when the model has one.
@@ -66,7 +67,7 @@ impl<T: Float> ModelGrads<T> {
     pub fn all_finite(&self) -> bool {
         let f = FieldGrads::all_finite;
         f(&self.sdf)
-            && f(&self.material)
+            && self.material.all_finite()
             && f(&self.ambient)
             && self.ambient_specular.as_ref().is_none_or(f)
             && finite(self.sharpness)
@@ -145,6 +146,19 @@ impl<T: Float> Model<T> {
             seed.wrapping_add(1),
         )?;
         set_output_bias(&mut material, &config.init_material.map(logit))?;
+        let metallic = match &config.metallic_field {
+            Some(size) => {
+                let mut field =
+                    grid_mlp_field(size, 0, 1, Activation::Sigmoid, seed.wrapping_add(4))?;
+                set_output_bias(&mut field, &[logit(config.init_material[METALLIC])])?;
+                Some(field)
+            }
+            None => None,
+        };
+        let material = MaterialField {
+            params: material,
+            metallic,
+        };
         let ambient = radiance_field(
             &config.ambient,
             ambient_extra_inputs(config.ambient_model, config.geometry_features),
@@ -202,7 +216,7 @@ impl<T: Float> Model<T> {
     /// Sets how many hash levels of every field are active (coarse-to-fine).
     pub fn set_active_levels(&mut self, sdf_levels: usize, material_levels: usize) {
         self.sdf.field.active_levels = sdf_levels.min(self.config.sdf.levels);
-        self.material.active_levels = material_levels.min(self.config.material.levels);
+        self.material.set_active_levels(material_levels);
     }
 
     /// The finite-difference step of the SDF normals: the cell size of the
@@ -219,7 +233,7 @@ impl<T: Float> Model<T> {
                 && wildlight_fields::all_finite(&n.mlp.params)
         };
         f(&self.sdf.field)
-            && f(&self.material)
+            && self.material.all_finite()
             && f(&self.ambient)
             && self.ambient_specular.as_ref().is_none_or(f)
             && finite(self.sharpness)

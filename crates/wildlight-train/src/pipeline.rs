@@ -14,6 +14,7 @@
 
 use crate::ambient::{AmbientInputGrads, AmbientInputs, AmbientPass};
 use crate::float::{Float, finite, norm3, of, safe_norm3, to_f64, unit3, unit3_backward};
+use crate::material_field::MaterialContext;
 use crate::model::{Model, ModelGrads};
 use wildlight_fields::{FdScheme, FieldContext, NormalContext};
 use wildlight_material::{METALLIC, PARAM_COUNT};
@@ -112,7 +113,7 @@ pub struct Pipeline<T = f32> {
     n_samples: usize,
     /// NeuS alphas, weights and Σw of the last pass.
     pub weights: NeusWeights<T>,
-    material_ctx: FieldContext<T>,
+    material_ctx: MaterialContext<T>,
     ambient_pass: AmbientPass<T>,
     flash_cache: FlashCache<T>,
     /// Material parameters at each sample.
@@ -242,7 +243,7 @@ impl<T: Float + Default> Pipeline<T> {
         // Material parameters Θ = sigmoid(outputs) (SPEC §3).
         model
             .material
-            .forward(&self.samples.positions, &[], &mut self.material_ctx);
+            .forward(&self.samples.positions, &mut self.material_ctx);
         self.theta.clear();
         self.theta.extend(
             self.material_ctx
@@ -447,8 +448,6 @@ impl<T: Float + Default> Pipeline<T> {
             &mut self.material_ctx,
             self.d_theta.as_flattened(),
             &mut grads.material,
-            None,
-            None,
         );
 
         // NeuS weights → φ, ∇φ, v.

@@ -29,8 +29,8 @@
 //! `loss.material_smoothness` defaults to 0.1; 0 turns it off.
 
 use crate::float::{Float, of, sign, to_f64};
+use crate::material_field::{MaterialContext, MaterialField, MaterialGrads};
 use serde::{Deserialize, Serialize};
-use wildlight_fields::{FieldContext, FieldGrads, NeuralField};
 use wildlight_material::{BASE_COLOR, CLEARCOAT, DIELECTRIC, PARAM_COUNT};
 
 /// Floor of the denominator of the relative difference.
@@ -132,7 +132,7 @@ impl<T: Float> SmoothnessSettings<T> {
 #[derive(Default)]
 pub struct MaterialSmoothness<T> {
     points: Vec<[T; 3]>,
-    ctx: FieldContext<T>,
+    ctx: MaterialContext<T>,
     d_out: Vec<T>,
 }
 
@@ -143,19 +143,18 @@ impl<T: Float + Default> MaterialSmoothness<T> {
     /// parameters into `grads`. Returns the mean Σ_i w_i δ_i (without λ).
     pub fn forward_backward(
         &mut self,
-        field: &NeuralField<T>,
+        field: &MaterialField<T>,
         centres: &[[T; 3]],
         offsets: &[[T; 3]],
         settings: &SmoothnessSettings<T>,
-        grads: &mut FieldGrads<T>,
+        grads: &mut MaterialGrads<T>,
     ) -> f64 {
         let m = pair_points(centres, offsets, &mut self.points);
         if m == 0 {
             return 0.0;
         }
-        field.forward(&self.points, &[], &mut self.ctx);
-        let k = field.n_output();
-        debug_assert_eq!(k, PARAM_COUNT, "the material field gives Θ");
+        field.forward(&self.points, &mut self.ctx);
+        let k = PARAM_COUNT;
         let out = self.ctx.output();
         let (near, far) = out.split_at(m * k);
         let scale = settings.weight / of(m as f64);
@@ -231,7 +230,7 @@ impl<T: Float + Default> MaterialSmoothness<T> {
                     .sum::<f64>()
             }
         };
-        field.backward(&mut self.ctx, &self.d_out, grads, None, None);
+        field.backward(&mut self.ctx, &self.d_out, grads);
         sum / m as f64
     }
 }

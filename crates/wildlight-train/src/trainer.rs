@@ -7,7 +7,8 @@
 use crate::averaging::ParameterAverage;
 use crate::config::{SmoothnessFactors, TrainConfig};
 use crate::loss::{add_colour_l2, colour_l1, counted_l1, mask_bce, psnr};
-use crate::metallic_prior::BinaryMetallic;
+use crate::material_field::MaterialField;
+use crate::metallic_prior::{BinaryMetallic, MetalAnchor, PushScope};
 use crate::model::{Model, ModelGrads};
 use crate::normal_smoothness::{self, NormalSmoothness};
 use crate::pipeline::{PassSettings, Pipeline, RayInputs, eval_sdf};
@@ -105,6 +106,8 @@ struct Groups {
     gain: usize,
     /// The ambient specular field's grid and MLP, when the model has one.
     amb_specular: Option<(usize, usize)>,
+    /// The metallic field's grid and MLP, when the model has one.
+    metallic: Option<(usize, usize)>,
 }
 
 /// The state of a training run.
@@ -126,6 +129,10 @@ pub struct Trainer {
     smoothness: MaterialSmoothness<f32>,
     normal_smoothness: NormalSmoothness<f32>,
     binary_metallic: BinaryMetallic<f32>,
+    metal_anchor: MetalAnchor<f32>,
+    /// The material field when the binary-metallic push began (held only
+    /// while it pushes, with a metal anchor).
+    metal_snapshot: Option<MaterialField<f32>>,
     /// The visual-hull prior (`None` when off or without masks).
     hull_prior: Option<HullPrior>,
     rays: TrainingRays,
@@ -196,7 +203,7 @@ impl Trainer {
         let (mat_grid, mat_mlp) = add_field(
             &mut adam,
             "material",
-            &model.material,
+            &model.material.params,
             gf.material,
             mf.material,
         );
@@ -226,6 +233,7 @@ impl Trainer {
                 },
             ),
             amb_specular: None,
+            metallic: None,
         };
         if let Some(f) = &model.ambient_specular {
             groups.amb_specular = Some(add_field(
@@ -234,6 +242,15 @@ impl Trainer {
                 f,
                 gf.ambient,
                 mf.ambient,
+            ));
+        }
+        if let Some(f) = &model.material.metallic {
+            groups.metallic = Some(add_field(
+                &mut adam,
+                "metallic",
+                f,
+                gf.material,
+                mf.material,
             ));
         }
         let grid = OccupancyGrid::new(config.sampling.occupancy())?;
@@ -265,6 +282,8 @@ impl Trainer {
             smoothness: MaterialSmoothness::default(),
             normal_smoothness: NormalSmoothness::default(),
             binary_metallic: BinaryMetallic::default(),
+            metal_anchor: MetalAnchor::default(),
+            metal_snapshot: None,
             hull_prior,
             rays,
             adam,
@@ -683,22 +702,42 @@ impl Trainer {
         let (centres, normals) = self.pipeline.surface_points(0.5);
         let binary = if binary_on {
             let min_resolution = loss.binary_metallic_min_resolution;
-            let local_from = (min_resolution > 0).then(|| {
-                let grid = &self.model.material.grid;
-                grid.levels()
-                    .iter()
-                    .find(|level| level.resolution >= min_resolution)
-                    .map_or(grid.n_params(), |level| level.param_offset)
-            });
-            self.binary_metallic.forward_backward(
+            let scope = if loss.binary_metallic_readout_only {
+                PushScope::MetallicReadout
+            } else if min_resolution > 0 {
+                let grid = &self.model.material.metallic_source().0.grid;
+                PushScope::TableFrom(
+                    grid.levels()
+                        .iter()
+                        .find(|level| level.resolution >= min_resolution)
+                        .map_or(grid.n_params(), |level| level.param_offset),
+                )
+            } else {
+                PushScope::Everywhere
+            };
+            let value = self.binary_metallic.forward_backward(
                 &self.model.material,
                 &centres,
                 loss.binary_metallic as f32,
                 loss.binary_metallic_ceiling as f32,
-                local_from,
+                scope,
                 &mut self.grads.material,
-            )
+            );
+            if loss.binary_metallic_anchor > 0.0 {
+                let snapshot = self
+                    .metal_snapshot
+                    .get_or_insert_with(|| self.model.material.clone());
+                self.metal_anchor.forward_backward(
+                    &self.model.material,
+                    snapshot,
+                    &centres,
+                    loss.binary_metallic_anchor as f32,
+                    &mut self.grads.material,
+                );
+            }
+            value
         } else {
+            self.metal_snapshot = None;
             0.0
         };
         if !smooth {
@@ -779,22 +818,23 @@ impl Trainer {
         let (m, g, gr, a) = (&mut self.model, &self.grads, &self.groups, &mut self.adam);
         a.step(gr.sdf_grid, &mut m.sdf.field.grid.params, &g.sdf.grid, f);
         a.step(gr.sdf_mlp, &mut m.sdf.field.mlp.params, &g.sdf.mlp, f);
-        a.step(
-            gr.mat_grid,
-            &mut m.material.grid.params,
-            &g.material.grid,
-            f,
-        );
-        a.step(gr.mat_mlp, &mut m.material.mlp.params, &g.material.mlp, f);
+        let (mat, mat_g) = (&mut m.material.params, &g.material.params);
+        a.step(gr.mat_grid, &mut mat.grid.params, &mat_g.grid, f);
+        a.step(gr.mat_mlp, &mut mat.mlp.params, &mat_g.mlp, f);
         a.step(gr.amb_grid, &mut m.ambient.grid.params, &g.ambient.grid, f);
         a.step(gr.amb_mlp, &mut m.ambient.mlp.params, &g.ambient.mlp, f);
-        if let (Some((grid, mlp)), Some(field), Some(grads)) = (
-            gr.amb_specular,
-            &mut m.ambient_specular,
-            &g.ambient_specular,
-        ) {
-            a.step(grid, &mut field.grid.params, &grads.grid, f);
-            a.step(mlp, &mut field.mlp.params, &grads.mlp, f);
+        for (groups, field, grads) in [
+            (
+                gr.amb_specular,
+                &mut m.ambient_specular,
+                &g.ambient_specular,
+            ),
+            (gr.metallic, &mut m.material.metallic, &g.material.metallic),
+        ] {
+            if let (Some((grid, mlp)), Some(field), Some(grads)) = (groups, field, grads) {
+                a.step(grid, &mut field.grid.params, &grads.grid, f);
+                a.step(mlp, &mut field.mlp.params, &grads.mlp, f);
+            }
         }
         let mut v = [m.sharpness];
         a.step(gr.sharpness, &mut v, &[g.sharpness], f);
@@ -822,6 +862,9 @@ impl Trainer {
         w.set_metadata("occupancy.resolution", &grid.resolution.to_string());
         w.set_metadata("occupancy.band", &format!("{:e}", grid.band));
         w.set_metadata("occupancy.round", &grid.round.to_string());
+        if let Some(snapshot) = &self.metal_snapshot {
+            save_material(snapshot, &mut w, METAL_SNAPSHOT_PREFIX);
+        }
         if let Some(map) = self.rays.error_map() {
             w.add("error_map", &[map.values().len()], map.values());
         }
@@ -852,6 +895,15 @@ impl Trainer {
                 None => avg.count = 0,
             }
         }
+        // held only while an anchored push runs
+        self.metal_snapshot = if ck.contains(&format!("{METAL_SNAPSHOT_PREFIX}material.grid.table"))
+        {
+            let mut snapshot = self.model.material.clone();
+            load_material(&mut snapshot, &ck, METAL_SNAPSHOT_PREFIX)?;
+            Some(snapshot)
+        } else {
+            None
+        };
         self.adam
             .load_from(&ck, "adam")
             .with_context(|| format!("{}: optimiser state", path.display()))?;
@@ -913,7 +965,7 @@ pub const AVERAGE_COUNT: &str = "average.count";
 /// `prefix` ("" for the live model, [`AVERAGE_PREFIX`] for the average).
 pub fn save_model(model: &Model, w: &mut CheckpointWriter, prefix: &str) {
     model.sdf.save_to(w, &format!("{prefix}sdf"));
-    model.material.save_to(w, &format!("{prefix}material"));
+    save_material(&model.material, w, prefix);
     model.ambient.save_to(w, &format!("{prefix}ambient"));
     if let Some(f) = &model.ambient_specular {
         f.save_to(w, &format!("{prefix}ambient_specular"));
@@ -925,6 +977,36 @@ pub fn save_model(model: &Model, w: &mut CheckpointWriter, prefix: &str) {
     );
 }
 
+/// Adds the material field's parameters to a checkpoint, each tensor's
+/// name after `prefix`.
+fn save_material(material: &MaterialField<f32>, w: &mut CheckpointWriter, prefix: &str) {
+    material.params.save_to(w, &format!("{prefix}material"));
+    if let Some(f) = &material.metallic {
+        f.save_to(w, &format!("{prefix}metallic"));
+    }
+}
+
+/// Reads the material field's parameters (those saved with `prefix`).
+fn load_material(
+    material: &mut MaterialField<f32>,
+    ck: &Checkpoint,
+    prefix: &str,
+) -> anyhow::Result<()> {
+    let p = ck.path().display().to_string();
+    material
+        .params
+        .load_from(ck, &format!("{prefix}material"))
+        .with_context(|| format!("{p}: {prefix}material field"))?;
+    if let Some(f) = &mut material.metallic {
+        f.load_from(ck, &format!("{prefix}metallic"))
+            .with_context(|| format!("{p}: {prefix}metallic field"))?;
+    }
+    Ok(())
+}
+
+/// Prefix of the metal anchor's snapshot in a checkpoint.
+const METAL_SNAPSHOT_PREFIX: &str = "metal_snapshot.";
+
 /// Reads the model's parameters (those saved with `prefix`) from a
 /// checkpoint.
 pub fn load_model(model: &mut Model, ck: &Checkpoint, prefix: &str) -> anyhow::Result<()> {
@@ -933,10 +1015,7 @@ pub fn load_model(model: &mut Model, ck: &Checkpoint, prefix: &str) -> anyhow::R
         .sdf
         .load_from(ck, &format!("{prefix}sdf"))
         .with_context(|| format!("{p}: {prefix}SDF field"))?;
-    model
-        .material
-        .load_from(ck, &format!("{prefix}material"))
-        .with_context(|| format!("{p}: {prefix}material field"))?;
+    load_material(&mut model.material, ck, prefix)?;
     model
         .ambient
         .load_from(ck, &format!("{prefix}ambient"))

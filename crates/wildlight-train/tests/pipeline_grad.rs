@@ -5,6 +5,7 @@
 //! is probed.
 
 use wildlight_fields::Interpolation;
+use wildlight_material::METALLIC;
 use wildlight_train::config::{AmbientModel, FieldSize, ModelConfig};
 use wildlight_train::model::Model;
 use wildlight_train::pipeline::{PassSettings, Pipeline, RayInputs};
@@ -152,10 +153,16 @@ fn sdf_mlp(m: &mut Model<f64>) -> &mut Vec<f64> {
     &mut m.sdf.field.mlp.params
 }
 fn mat_grid(m: &mut Model<f64>) -> &mut Vec<f64> {
-    &mut m.material.grid.params
+    &mut m.material.params.grid.params
 }
 fn mat_mlp(m: &mut Model<f64>) -> &mut Vec<f64> {
-    &mut m.material.mlp.params
+    &mut m.material.params.mlp.params
+}
+fn metal_grid(m: &mut Model<f64>) -> &mut Vec<f64> {
+    &mut m.material.metallic.as_mut().unwrap().grid.params
+}
+fn metal_mlp(m: &mut Model<f64>) -> &mut Vec<f64> {
+    &mut m.material.metallic.as_mut().unwrap().mlp.params
 }
 fn amb_grid(m: &mut Model<f64>) -> &mut Vec<f64> {
     &mut m.ambient.grid.params
@@ -231,12 +238,40 @@ fn whole_pipeline_with_metallic_held_matches_finite_differences() {
     check_whole_pipeline_in(&config, held);
 }
 
+/// Metallic from a field of its own (`model.metallic_field`): the
+/// gradient reaches that field, and none reaches the material network's
+/// unused metallic output (its row of the last layer).
+#[test]
+fn whole_pipeline_with_a_metallic_field_matches_finite_differences() {
+    let config = ModelConfig {
+        init_material: [0.6, 0.4, 0.3, 0.5, 0.5, 0.3, 0.4, 0.5, 0.4],
+        metallic_field: Some(tiny(2, 6, 8)),
+        ..tiny_config()
+    };
+    check_whole_pipeline(&config);
+    let model = prepared_model(&config);
+    let mut grads = model.new_grads();
+    loss(&model, &setup(), Some(&mut grads));
+    let last = *model.material.params.mlp.layers().last().unwrap();
+    let row = last.weight_offset + METALLIC * last.n_in;
+    let unused = &grads.material.params.mlp[row..row + last.n_in];
+    assert!(unused.iter().all(|g| *g == 0.0), "{unused:?}");
+    assert_eq!(grads.material.params.mlp[last.bias_offset + METALLIC], 0.0);
+    let own = grads.material.metallic.as_ref().unwrap();
+    assert!(own.mlp.iter().any(|g| g.abs() > 1e-6));
+}
+
 /// The tiny model with its hash tables moved away from their tiny initial
 /// values, so that their gradients are not negligible.
 fn prepared_model(config: &ModelConfig) -> Model<f64> {
     let mut model = Model::<f64>::new(config, 5).unwrap();
-    for (i, v) in model.material.grid.params.iter_mut().enumerate() {
+    for (i, v) in model.material.params.grid.params.iter_mut().enumerate() {
         *v = 0.3 * ((i as f64 * 0.7).sin());
+    }
+    if let Some(f) = &mut model.material.metallic {
+        for (i, v) in f.grid.params.iter_mut().enumerate() {
+            *v = 0.3 * ((i as f64 * 0.6).cos());
+        }
     }
     for (i, v) in model.ambient.grid.params.iter_mut().enumerate() {
         *v = 0.3 * ((i as f64 * 1.3).cos());
@@ -287,8 +322,13 @@ fn check_whole_pipeline_in(config: &ModelConfig, s: Setup) {
     }
     probe!("sdf.grid", sdf_grid, grads.sdf.grid);
     probe!("sdf.mlp", sdf_mlp, grads.sdf.mlp);
-    probe!("material.grid", mat_grid, grads.material.grid);
-    probe!("material.mlp", mat_mlp, grads.material.mlp);
+    probe!("material.grid", mat_grid, grads.material.params.grid);
+    probe!("material.mlp", mat_mlp, grads.material.params.mlp);
+    if let Some(g) = &grads.material.metallic {
+        probe!("metallic.grid", metal_grid, g.grid);
+        probe!("metallic.mlp", metal_mlp, g.mlp);
+        assert!(g.grid.iter().any(|v| v.abs() > 1e-6));
+    }
     probe!("ambient.grid", amb_grid, grads.ambient.grid);
     probe!("ambient.mlp", amb_mlp, grads.ambient.mlp);
     if let Some(g) = &grads.ambient_specular {
@@ -320,7 +360,7 @@ fn check_whole_pipeline_in(config: &ModelConfig, s: Setup) {
     assert!(probed >= 40, "{probed} parameters probed");
     // The gradients are not trivially zero.
     assert!(grads.sharpness.abs() > 1e-6 && grads.log_gain.abs() > 1e-6);
-    assert!(grads.material.mlp.iter().any(|g| g.abs() > 1e-6));
+    assert!(grads.material.params.mlp.iter().any(|g| g.abs() > 1e-6));
 }
 
 /// The ambient fields' gradients of a pass: every parameter of the ambient

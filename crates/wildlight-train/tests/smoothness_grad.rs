@@ -21,7 +21,7 @@ const WEIGHT: f64 = 0.7;
 fn loss_with(
     settings: SmoothnessSettings<f64>,
     model: &Model<f64>,
-    grads: Option<&mut wildlight_fields::FieldGrads<f64>>,
+    grads: Option<&mut wildlight_train::material_field::MaterialGrads<f64>>,
 ) -> f64 {
     let mut term = MaterialSmoothness::<f64>::default();
     let mut scratch = model.material.new_grads();
@@ -30,12 +30,18 @@ fn loss_with(
 }
 
 /// λ · L_smooth and (when asked) its gradient.
-fn loss(model: &Model<f64>, grads: Option<&mut wildlight_fields::FieldGrads<f64>>) -> f64 {
+fn loss(
+    model: &Model<f64>,
+    grads: Option<&mut wildlight_train::material_field::MaterialGrads<f64>>,
+) -> f64 {
     loss_with(SmoothnessSettings::uniform(WEIGHT), model, grads)
 }
 
 /// The same with the per-parameter factors of `FACTORS`.
-fn factored_loss(model: &Model<f64>, grads: Option<&mut wildlight_fields::FieldGrads<f64>>) -> f64 {
+fn factored_loss(
+    model: &Model<f64>,
+    grads: Option<&mut wildlight_train::material_field::MaterialGrads<f64>>,
+) -> f64 {
     let settings = SmoothnessSettings {
         factors: FACTORS,
         ..SmoothnessSettings::uniform(WEIGHT)
@@ -44,7 +50,10 @@ fn factored_loss(model: &Model<f64>, grads: Option<&mut wildlight_fields::FieldG
 }
 
 /// The same with batch-relative differences and the factors of `FACTORS`.
-fn batch_loss(model: &Model<f64>, grads: Option<&mut wildlight_fields::FieldGrads<f64>>) -> f64 {
+fn batch_loss(
+    model: &Model<f64>,
+    grads: Option<&mut wildlight_train::material_field::MaterialGrads<f64>>,
+) -> f64 {
     let settings = SmoothnessSettings {
         factors: FACTORS,
         relative: RelativeDifference::Batch,
@@ -59,7 +68,7 @@ const SATURATION: f64 = 0.05;
 /// The same as `factored_loss` with saturated differences.
 fn saturated_loss(
     model: &Model<f64>,
-    grads: Option<&mut wildlight_fields::FieldGrads<f64>>,
+    grads: Option<&mut wildlight_train::material_field::MaterialGrads<f64>>,
 ) -> f64 {
     let settings = SmoothnessSettings {
         factors: FACTORS,
@@ -72,7 +81,7 @@ fn saturated_loss(
 /// The same as `batch_loss` with saturated differences.
 fn saturated_batch_loss(
     model: &Model<f64>,
-    grads: Option<&mut wildlight_fields::FieldGrads<f64>>,
+    grads: Option<&mut wildlight_train::material_field::MaterialGrads<f64>>,
 ) -> f64 {
     let settings = SmoothnessSettings {
         factors: FACTORS,
@@ -86,7 +95,7 @@ fn saturated_batch_loss(
 /// The same as `factored_loss` with metallic's differences alone saturated.
 fn metallic_saturated_loss(
     model: &Model<f64>,
-    grads: Option<&mut wildlight_fields::FieldGrads<f64>>,
+    grads: Option<&mut wildlight_train::material_field::MaterialGrads<f64>>,
 ) -> f64 {
     let mut saturation = [0.0; 9];
     saturation[wildlight_material::METALLIC] = SATURATION;
@@ -104,7 +113,7 @@ const FACTORS: [f64; 9] = [2.0, 2.0, 2.0, 3.0, 0.5, 0.0, 1.5, 1.0, 0.25];
 #[test]
 fn smoothness_value_is_the_mean_l1_difference_of_theta() {
     let model = tiny_material_model();
-    let mut ctx = wildlight_fields::FieldContext::default();
+    let mut ctx = wildlight_train::material_field::MaterialContext::default();
     let (mut by_hand, mut factored_by_hand) = (0.0, 0.0);
     let (mut diff, mut sums) = ([0.0; 9], [0.0; 9]);
     let (mut saturated_by_hand, mut saturated_diff) = (0.0, [0.0; 9]);
@@ -112,7 +121,7 @@ fn smoothness_value_is_the_mean_l1_difference_of_theta() {
     let psi = |d: f64| SATURATION * (1.0 + d / SATURATION).ln();
     for (c, e) in CENTRES.iter().zip(&OFFSETS) {
         let far = [c[0] + e[0], c[1] + e[1], c[2] + e[2]];
-        model.material.forward(&[*c, far], &[], &mut ctx);
+        model.material.forward(&[*c, far], &mut ctx);
         let (a, b) = ctx.output().split_at(9);
         for (i, (x, y)) in a.iter().zip(b).enumerate() {
             // relative for base colour (0–2), dielectric (7) and clearcoat (8)
@@ -194,7 +203,7 @@ fn smoothness_value_is_the_mean_l1_difference_of_theta() {
         &mut g,
     );
     assert_eq!(zero, 0.0);
-    assert!(g.grid.iter().chain(&g.mlp).all(|v| *v == 0.0));
+    assert!(g.params.grid.iter().chain(&g.params.mlp).all(|v| *v == 0.0));
 }
 
 #[test]
@@ -234,10 +243,11 @@ fn saturation_fades_the_push_across_large_differences() {
         ..SmoothnessSettings::uniform(WEIGHT)
     };
     loss_with(settings, &model, Some(&mut sat));
-    let norm = |g: &wildlight_fields::FieldGrads<f64>| {
-        g.grid
+    let norm = |g: &wildlight_train::material_field::MaterialGrads<f64>| {
+        g.params
+            .grid
             .iter()
-            .chain(&g.mlp)
+            .chain(&g.params.mlp)
             .map(|v| v * v)
             .sum::<f64>()
             .sqrt()
@@ -256,10 +266,11 @@ fn saturation_fades_the_push_across_large_differences() {
     };
     loss_with(settings, &model, Some(&mut wide));
     let diff = wide
+        .params
         .grid
         .iter()
-        .chain(&wide.mlp)
-        .zip(l1.grid.iter().chain(&l1.mlp))
+        .chain(&wide.params.mlp)
+        .zip(l1.params.grid.iter().chain(&l1.params.mlp))
         .map(|(a, b)| (a - b).abs())
         .fold(0.0f64, f64::max);
     assert!(diff < 1e-6 * n1, "{diff}");

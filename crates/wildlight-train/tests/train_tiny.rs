@@ -212,6 +212,34 @@ fn resumed_training_of_the_plain_neural_ambient_without_the_material_prior_conti
     check_resume(AmbientModel::Neural, 0.0, |_| {});
 }
 
+/// Metallic from a field of its own: that field, its optimiser state and
+/// its share of the parameter average survive a checkpoint, with the
+/// binary-metallic prior moving it.
+#[test]
+fn resumed_training_with_a_metallic_field_continues_exactly() {
+    check_resume(AmbientModel::NeuralRoom, DEFAULT_SMOOTHNESS, |c| {
+        c.model.metallic_field = Some(c.model.material.clone());
+        c.loss.binary_metallic = 0.3;
+        c.optim.average_from = 0.25;
+        c.optim.average_every = 1;
+    });
+}
+
+/// A binary-metallic push with the metal anchor, resumed in the middle of
+/// the push: the anchor's snapshot (taken when the push began) travels in
+/// the checkpoint, so the resumed run holds the metals to the same values.
+#[test]
+fn resumed_training_inside_an_anchored_push_continues_exactly() {
+    check_resume(AmbientModel::NeuralRoom, DEFAULT_SMOOTHNESS, |c| {
+        c.loss.binary_metallic = 0.3;
+        c.loss.binary_metallic_start = 0.25;
+        c.loss.binary_metallic_end = 0.75;
+        c.loss.binary_metallic_anchor = 30.0;
+        // every point a metal at the snapshot, so that the anchor acts
+        c.model.init_material[METALLIC] = 0.6;
+    });
+}
+
 /// The mean of the parameters over the run's tail is in the checkpoint, so
 /// a run resumed inside the averaged part (from 0.25 of the run) continues
 /// it exactly, and one resumed before it (from 0.75) starts it as the
@@ -298,8 +326,8 @@ fn a_trained_run_loads_the_parameter_average() {
         want.sdf.field.grid.params
     );
     assert_eq!(
-        trained.model.material.grid.params,
-        want.material.grid.params
+        trained.model.material.params.grid.params,
+        want.material.params.grid.params
     );
     assert_eq!(trained.model.log_gain.to_bits(), want.log_gain.to_bits());
     assert_ne!(
@@ -368,8 +396,15 @@ fn check_resume(
         let (a, b) = (&straight.model, &second.model);
         assert_eq!(a.sdf.field.grid.params, b.sdf.field.grid.params);
         assert_eq!(a.sdf.field.mlp.params, b.sdf.field.mlp.params);
-        assert_eq!(a.material.grid.params, b.material.grid.params);
-        assert_eq!(a.material.mlp.params, b.material.mlp.params);
+        assert_eq!(a.material.params.grid.params, b.material.params.grid.params);
+        assert_eq!(a.material.params.mlp.params, b.material.params.mlp.params);
+        let metallic = |m: &wildlight_train::Model| {
+            m.material
+                .metallic
+                .as_ref()
+                .map(|f| (f.grid.params.clone(), f.mlp.params.clone()))
+        };
+        assert_eq!(metallic(a), metallic(b));
         assert_eq!(a.ambient.grid.params, b.ambient.grid.params);
         assert_eq!(a.ambient.mlp.params, b.ambient.mlp.params);
         let specular = |m: &wildlight_train::Model| {
@@ -389,7 +424,8 @@ fn check_resume(
                 (
                     avg.count,
                     m.sdf.field.grid.params.clone(),
-                    m.material.mlp.params.clone(),
+                    m.material.params.mlp.params.clone(),
+                    m.material.metallic.as_ref().map(|f| f.mlp.params.clone()),
                     m.ambient.grid.params.clone(),
                     m.sharpness.to_bits(),
                 )
@@ -443,7 +479,7 @@ fn a_non_finite_step_is_skipped_and_never_checkpointed() {
     let poisoned = trainer.model.ambient.mlp.params.len() - 1;
     trainer.model.ambient.mlp.params[poisoned] = f32::NAN;
     let sdf_before = trainer.model.sdf.field.grid.params.clone();
-    let material_before = trainer.model.material.mlp.params.clone();
+    let material_before = trainer.model.material.params.mlp.params.clone();
     let gain_before = trainer.model.log_gain;
     let scale_before = trainer.lr_scale;
     let st = trainer.step();
@@ -452,7 +488,7 @@ fn a_non_finite_step_is_skipped_and_never_checkpointed() {
     assert_eq!(trainer.skipped_steps, 1);
     assert_eq!(trainer.lr_scale, 0.5 * scale_before);
     assert_eq!(trainer.model.sdf.field.grid.params, sdf_before);
-    assert_eq!(trainer.model.material.mlp.params, material_before);
+    assert_eq!(trainer.model.material.params.mlp.params, material_before);
     assert_eq!(trainer.model.log_gain.to_bits(), gain_before.to_bits());
     let ckpt = dir.path().join("poisoned.safetensors");
     let err = trainer.save_checkpoint(&ckpt).unwrap_err();
@@ -612,7 +648,7 @@ fn metallic_is_held_for_its_share_of_the_run() {
     let mut trainer = Trainer::new(config, TrainingRays::new(&dataset)).unwrap();
     assert_eq!(trainer.metallic_hold_steps(), 4);
     let biases = |t: &Trainer| {
-        let mlp = &t.model.material.mlp;
+        let mlp = &t.model.material.params.mlp;
         let b = mlp.layers().last().unwrap().bias_offset;
         (mlp.params[b + METALLIC], mlp.params[b + ROUGHNESS])
     };
@@ -666,10 +702,13 @@ fn per_field_learning_rate_factors_scale_each_field() {
         frozen.step();
     }
     assert_eq!(
-        frozen.model.material.grid.params,
-        start.material.grid.params
+        frozen.model.material.params.grid.params,
+        start.material.params.grid.params
     );
-    assert_eq!(frozen.model.material.mlp.params, start.material.mlp.params);
+    assert_eq!(
+        frozen.model.material.params.mlp.params,
+        start.material.params.mlp.params
+    );
     assert_ne!(
         frozen.model.sdf.field.mlp.params,
         start.sdf.field.mlp.params
@@ -681,7 +720,10 @@ fn per_field_learning_rate_factors_scale_each_field() {
     for _ in 0..5 {
         free.step();
     }
-    assert_ne!(free.model.material.mlp.params, start.material.mlp.params);
+    assert_ne!(
+        free.model.material.params.mlp.params,
+        start.material.params.mlp.params
+    );
 }
 
 /// The material smoothness weight follows the learning rate's cosine from λ
