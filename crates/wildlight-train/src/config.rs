@@ -301,10 +301,11 @@ pub struct LossConfig {
     /// or the levels of `binary_metallic_min_resolution`). The push can
     /// then not touch base colour or roughness anywhere. At 3,000 steps
     /// (λ 0.3 from 0.5 to 0.7 of the run) it takes the glazes' small
-    /// metallic (0.03–0.06) to 0.00–0.01 but leaves the terracotta a
-    /// partial metal (0.36): base colour 25.44 against 25.33 dB on seed 0,
-    /// 24.68 against 24.48 dB on seed 1, flash views +0.09 / +0.12 dB
-    /// (docs/benchmark-log.md, session 29).
+    /// metallic (0.03–0.08) to 0.00–0.04 but leaves the terracotta a
+    /// partial metal (0.23–0.36): base colour +0.11 / +0.20 / +0.02 dB and
+    /// flash views +0.09 / +0.12 / +0.16 dB on seeds 0 / 1 / 2. From 0.25
+    /// of the run base colour swung from +0.29 to −0.76 dB; from 0.1 the
+    /// metals never turned (docs/benchmark-log.md, session 29).
     pub binary_metallic_readout_only: bool,
     /// Weight μ of the metal anchor (`crate::metallic_prior::MetalAnchor`)
     /// while the binary-metallic prior pushes: the points that were metals
@@ -314,7 +315,8 @@ pub struct LossConfig {
     /// (24.89 dB without the anchor): terracotta metallic 0.15, the metals
     /// nearly as bright as without the push, but the flash views 0.13 dB
     /// lower (the terracotta, now a dielectric, keeps the glazes'
-    /// roughness 0.41 for its 0.85). From half the run μ 3 or 30 held
+    /// roughness 0.41 for its 0.85); on seed 1 24.50 against 24.48 dB,
+    /// the flash views 0.17 dB lower. From half the run μ 3 or 30 held
     /// nothing (24.11 / 24.16 dB): the metals are darker then than at the
     /// end of a run without the push, and the anchor keeps them so.
     pub binary_metallic_anchor: f64,

@@ -696,6 +696,10 @@ impl Trainer {
         let binary_on = loss.binary_metallic > 0.0
             && step >= self.binary_metallic_start_step()
             && step < self.share_of_planned_steps(loss.binary_metallic_end);
+        if !binary_on {
+            // the anchor's snapshot lives as long as the push
+            self.metal_snapshot = None;
+        }
         if !smooth && !binary_on {
             return (0.0, 0.0, 0.0);
         }
@@ -737,7 +741,6 @@ impl Trainer {
             }
             value
         } else {
-            self.metal_snapshot = None;
             0.0
         };
         if !smooth {
