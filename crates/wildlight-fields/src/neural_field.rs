@@ -151,6 +151,11 @@ impl<T: Real> NeuralField<T> {
     pub fn extra_column(&self) -> usize {
         3 * usize::from(self.config.include_position)
     }
+    /// Whether every parameter (hash table and MLP) is finite
+    /// ([`crate::all_finite`]).
+    pub fn all_finite(&self) -> bool {
+        crate::all_finite(&self.grid.params) && crate::all_finite(&self.mlp.params)
+    }
     /// Zeroed gradient buffers of the right sizes.
     pub fn new_grads(&self) -> FieldGrads<T> {
         FieldGrads {

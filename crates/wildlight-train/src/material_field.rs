@@ -156,10 +156,6 @@ impl<T: Float + Default> MaterialField<T> {
 
     /// Whether every parameter is finite.
     pub fn all_finite(&self) -> bool {
-        let f = |n: &NeuralField<T>| {
-            wildlight_fields::all_finite(&n.grid.params)
-                && wildlight_fields::all_finite(&n.mlp.params)
-        };
-        f(&self.params) && self.metallic.as_ref().is_none_or(f)
+        self.params.all_finite() && self.metallic.as_ref().is_none_or(NeuralField::all_finite)
     }
 }

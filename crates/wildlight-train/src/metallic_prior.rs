@@ -45,7 +45,7 @@
 
 use crate::float::{Float, of, to_f64};
 use crate::material_field::{MaterialContext, MaterialField, MaterialGrads};
-use wildlight_fields::{FieldContext, FieldGrads};
+use wildlight_fields::{FieldContext, FieldGrads, NeuralField};
 use wildlight_material::{BASE_COLOR, METALLIC, PARAM_COUNT, ROUGHNESS};
 
 /// Which parameters of the material field the binary-metallic prior moves.
@@ -113,21 +113,18 @@ impl<T: Float + Default> BinaryMetallic<T> {
             sum += to_f64(metal * (T::ONE - metal));
             d[channel] = scale * (T::ONE - of::<T>(2.0) * metal);
         }
-        if scope == PushScope::Everywhere {
-            field.backward(&mut self.ctx, &self.d_out, grads, None, None);
-            return sum / m as f64;
-        }
-        let local = self.local.get_or_insert_with(|| field.new_grads());
-        local.zero();
-        field.backward(&mut self.ctx, &self.d_out, local, None, None);
         match scope {
-            PushScope::Everywhere => unreachable!("handled above"),
+            PushScope::Everywhere => {
+                field.backward(&mut self.ctx, &self.d_out, grads, None, None);
+            }
             PushScope::TableFrom(first) => {
+                let local = self.whole_gradient(field);
                 for (g, l) in grads.grid[first..].iter_mut().zip(&local.grid[first..]) {
                     *g += *l;
                 }
             }
             PushScope::MetallicReadout => {
+                let local = self.whole_gradient(field);
                 let last = *field.mlp.layers().last().expect("an MLP has layers");
                 let row = last.weight_offset + channel * last.n_in;
                 let bias = last.bias_offset + channel;
@@ -137,6 +134,16 @@ impl<T: Float + Default> BinaryMetallic<T> {
             }
         }
         sum / m as f64
+    }
+
+    /// The gradient of the last forward pass with respect to every
+    /// parameter of `field`, in a scratch buffer, before a narrower push
+    /// keeps part of it.
+    fn whole_gradient(&mut self, field: &NeuralField<T>) -> &FieldGrads<T> {
+        let local = self.local.get_or_insert_with(|| field.new_grads());
+        local.zero();
+        field.backward(&mut self.ctx, &self.d_out, local, None, None);
+        local
     }
 }
 

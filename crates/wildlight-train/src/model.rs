@@ -228,10 +228,7 @@ impl<T: Float> Model<T> {
 
     /// Whether every parameter is finite.
     pub fn all_finite(&self) -> bool {
-        let f = |n: &NeuralField<T>| {
-            wildlight_fields::all_finite(&n.grid.params)
-                && wildlight_fields::all_finite(&n.mlp.params)
-        };
+        let f = NeuralField::all_finite;
         f(&self.sdf.field)
             && self.material.all_finite()
             && f(&self.ambient)
