@@ -257,7 +257,9 @@ pub struct LossConfig {
     pub normal_difference: NormalDifference,
     /// Weight λ of the binary-metallic prior (`crate::metallic_prior`; the
     /// project's addition to SPEC §4): the mean m (1 − m) of the metallic
-    /// value at the surface points. 0 (the default) turns it off. At 0.1
+    /// value at the surface points. 0 turns it off; the default, 0.3, is a
+    /// push from 0.5 to 0.7 of the run on the metallic readout alone
+    /// (`binary_metallic_readout_only`, session 30). At 0.1
     /// from the first step (3,000 steps, seed 0) it drove the metals to
     /// metallic 0 with the terracotta (base colour 14.3 against 21.0 dB):
     /// every point starts at metallic 0.05, nearer to 0. From step 1,500
@@ -268,15 +270,15 @@ pub struct LossConfig {
     /// to 14.7 dB: base colour 24.09 against 24.94 dB.
     pub binary_metallic: f64,
     /// When the binary-metallic prior starts, as a fraction of the planned
-    /// steps (0: from the first step; 0.5: the second half). Later, the
-    /// metals have had time to climb past one half before the prior pushes
-    /// each point to its nearer end.
+    /// steps (0: from the first step; 0.5, the default: the second half).
+    /// Later, the metals have had time to climb past one half before the
+    /// prior pushes each point to its nearer end.
     pub binary_metallic_start: f64,
     /// When the binary-metallic prior stops, as a fraction of the planned
-    /// steps (1, the default: it stays on to the end). Before 1 it is a
+    /// steps (1: it stays on to the end; the default 0.7). Before 1 it is a
     /// push that is then released: a part that the push carried into the
     /// dielectric basin stays there only if the photos agree. At 3,000
-    /// steps (seed 0, defaults 25.33 dB) λ 0.3 from 0.5 to 0.7 left the
+    /// steps (seed 0, session 28's defaults 25.33 dB) λ 0.3 from 0.5 to 0.7 left the
     /// terracotta a dielectric to the end (metallic 0.00, base colour
     /// 0.52 0.30 0.21 for 0.50 0.28 0.18) but the metals darker (21.07 dB
     /// with the ceiling at 0.5, the brass at metallic 0.72; 23.85 dB
@@ -286,7 +288,8 @@ pub struct LossConfig {
     pub binary_metallic_end: f64,
     /// Hash-table levels of at least this many cells per axis are the only
     /// parameters of the material field that the binary-metallic prior
-    /// moves (0, the default: every level and the network). A local push:
+    /// moves (0, the default: every level and the network; read only when
+    /// `binary_metallic_readout_only` is false). A local push:
     /// the network and the coarse levels, shared by a part and its
     /// neighbours, do not carry the metals along with the part pushed.
     /// At 3,000 steps (seed 0, λ 0.3 from 0.5 to 0.7 of the run) levels of
@@ -297,8 +300,9 @@ pub struct LossConfig {
     /// share the coarse levels.
     pub binary_metallic_min_resolution: u32,
     /// The binary-metallic prior moves only the metallic row of the
-    /// material network's last layer (false, the default: every parameter,
-    /// or the levels of `binary_metallic_min_resolution`). The push can
+    /// material network's last layer (true, the default since session 30;
+    /// false: every parameter, or the levels of
+    /// `binary_metallic_min_resolution`). The push can
     /// then not touch base colour or roughness anywhere. At 3,000 steps
     /// (λ 0.3 from 0.5 to 0.7 of the run) it takes the glazes' small
     /// metallic (0.03–0.08) to 0.00–0.04 but leaves the terracotta a
@@ -507,11 +511,11 @@ impl Default for LossConfig {
             normal_smoothness_radius: 0.0,
             normal_smoothness_final: 0.3,
             normal_difference: NormalDifference::Second,
-            binary_metallic: 0.0,
-            binary_metallic_start: 0.0,
-            binary_metallic_end: 1.0,
+            binary_metallic: 0.3,
+            binary_metallic_start: 0.5,
+            binary_metallic_end: 0.7,
             binary_metallic_min_resolution: 0,
-            binary_metallic_readout_only: false,
+            binary_metallic_readout_only: true,
             binary_metallic_anchor: 0.0,
             binary_metallic_ceiling: 1.0,
             visual_hull: 1.0,
