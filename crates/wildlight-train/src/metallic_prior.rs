@@ -14,7 +14,8 @@
 //! λ (1 − 2 m_j) / m pushes each point towards the nearer end. Only the
 //! material field receives the gradient (the points are held fixed). The
 //! prior is the project's addition to SPEC §4; its weight is
-//! `loss.binary_metallic`, 0 (off) by default.
+//! `loss.binary_metallic` (0 turns it off). By default (since session 30)
+//! it is a readout push (below) with λ = 0.3 from 0.5 to 0.7 of the run.
 //!
 //! A ceiling c (`loss.binary_metallic_ceiling`, default 1: every point)
 //! leaves the points with m_j > c out of the sum (they still count in m):
