@@ -235,6 +235,23 @@ impl<T: Real> NeuralField<T> {
             });
     }
 
+    /// The network's half of [`NeuralField::backward`]: accumulates (`+=`)
+    /// the MLP's parameter gradient into `grad_mlp` and leaves the gradient
+    /// with respect to the network's inputs in `ctx`. For a caller that
+    /// needs the network's gradient alone, it spares the hash table's
+    /// scatter.
+    pub fn backward_network(&self, ctx: &mut FieldContext<T>, d_out: &[T], grad_mlp: &mut [T]) {
+        let n_out = self.config.n_output;
+        assert_eq!(d_out.len(), ctx.n * n_out, "field backward: d_out length");
+        ctx.chunks
+            .par_iter_mut()
+            .zip(d_out.par_chunks(CHUNK_ROWS * n_out))
+            .for_each_init(MlpScratch::default, |sc, (ch, d)| {
+                self.mlp.backward_chunk(ch, d, sc)
+            });
+        Mlp::reduce_chunk_grads(&ctx.chunks, grad_mlp);
+    }
+
     /// Batched backward pass after [`NeuralField::forward`] with upstream
     /// gradients `d_out` (`n × n_output`). Accumulates (`+=`) into `grads`;
     /// overwrites `d_extra` (`n × n_extra`) and `d_x` when given.
@@ -247,15 +264,7 @@ impl<T: Real> NeuralField<T> {
         d_x: Option<&mut [[T; 3]]>,
     ) {
         let n = ctx.n;
-        let n_out = self.config.n_output;
-        assert_eq!(d_out.len(), n * n_out, "field backward: d_out length");
-        ctx.chunks
-            .par_iter_mut()
-            .zip(d_out.par_chunks(CHUNK_ROWS * n_out))
-            .for_each_init(MlpScratch::default, |sc, (ch, d)| {
-                self.mlp.backward_chunk(ch, d, sc)
-            });
-        Mlp::reduce_chunk_grads(&ctx.chunks, &mut grads.mlp);
+        self.backward_network(ctx, d_out, &mut grads.mlp);
         let enc_col = self.encoding_column();
         let blocks: Vec<&[T]> = ctx.chunks.iter().map(|c| c.d_input.as_slice()).collect();
         let layout = BlockLayout::column_major(CHUNK_ROWS);

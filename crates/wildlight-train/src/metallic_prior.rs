@@ -46,7 +46,7 @@
 
 use crate::float::{Float, of, to_f64};
 use crate::material_field::{MaterialContext, MaterialField, MaterialGrads};
-use wildlight_fields::{FieldContext, FieldGrads, NeuralField};
+use wildlight_fields::{FieldContext, FieldGrads};
 use wildlight_material::{BASE_COLOR, METALLIC, PARAM_COUNT, ROUGHNESS};
 
 /// Which parameters of the material field the binary-metallic prior moves.
@@ -68,6 +68,9 @@ pub struct BinaryMetallic<T> {
     d_out: Vec<T>,
     /// The whole gradient of a local push, before its fine levels are kept.
     local: Option<FieldGrads<T>>,
+    /// The network's gradient of a readout push, before its metallic row is
+    /// kept.
+    network: Vec<T>,
 }
 
 impl<T: Float + Default> BinaryMetallic<T> {
@@ -119,32 +122,28 @@ impl<T: Float + Default> BinaryMetallic<T> {
                 field.backward(&mut self.ctx, &self.d_out, grads, None, None);
             }
             PushScope::TableFrom(first) => {
-                let local = self.whole_gradient(field);
+                let local = self.local.get_or_insert_with(|| field.new_grads());
+                local.zero();
+                field.backward(&mut self.ctx, &self.d_out, local, None, None);
                 for (g, l) in grads.grid[first..].iter_mut().zip(&local.grid[first..]) {
                     *g += *l;
                 }
             }
             PushScope::MetallicReadout => {
-                let local = self.whole_gradient(field);
+                // only the network's gradient is kept: the hash table's
+                // backward is skipped
+                self.network.clear();
+                self.network.resize(field.mlp.n_params(), T::ZERO);
+                field.backward_network(&mut self.ctx, &self.d_out, &mut self.network);
                 let last = *field.mlp.layers().last().expect("an MLP has layers");
                 let row = last.weight_offset + channel * last.n_in;
                 let bias = last.bias_offset + channel;
                 for i in (row..row + last.n_in).chain([bias]) {
-                    grads.mlp[i] += local.mlp[i];
+                    grads.mlp[i] += self.network[i];
                 }
             }
         }
         sum / m as f64
-    }
-
-    /// The gradient of the last forward pass with respect to every
-    /// parameter of `field`, in a scratch buffer, before a narrower push
-    /// keeps part of it.
-    fn whole_gradient(&mut self, field: &NeuralField<T>) -> &FieldGrads<T> {
-        let local = self.local.get_or_insert_with(|| field.new_grads());
-        local.zero();
-        field.backward(&mut self.ctx, &self.d_out, local, None, None);
-        local
     }
 }
 
