@@ -29,6 +29,11 @@
 //!   bump, a crease) costs. A third point per pair, x − ε, makes it cost
 //!   1.5 times the first difference's normal evaluations.
 //!
+//! Optionally (`loss.normal_smoothness_relax`) each pair is weighed by how
+//! well its ray already matches the photo ([`relaxed_weights`]): where the
+//! surface runs smoothly across a crease the photo shows (the lid's groove,
+//! the foot ring's edge), the rays stay far off and the prior lets go.
+//!
 //! Only the SDF field receives the gradient (the points are held fixed).
 //! The prior is the project's addition: SPEC §4 names "curvature or normal
 //! smoothness" as welcome when measured to help. Its weight is
@@ -58,6 +63,27 @@ pub fn pair_offsets(
         .map(|(e, n)| {
             let en = if second { dot3(*e, *n) } else { 0.0 };
             [0, 1, 2].map(|a| (e[a] - en * n[a]) * scale)
+        })
+        .collect()
+}
+
+/// The weight 1 / (1 + (e / e₀)²) of each surface point's pair for
+/// `loss.normal_smoothness_relax` = e₀: e is the L1 colour error of the
+/// point's ray `rays[j]` (rendered `colour` against observed `target`, both
+/// clipped at 1, summed over the channels), so the prior lets go where the
+/// model cannot match the photo with the surface it has (a bridged crease).
+pub fn relaxed_weights(
+    rays: &[usize],
+    colour: &[[f32; 3]],
+    target: &[[f32; 3]],
+    e0: f32,
+) -> Vec<f32> {
+    rays.iter()
+        .map(|&r| {
+            let (c, t) = (colour[r], target[r]);
+            let e: f32 = (0..3).map(|i| (c[i].min(1.0) - t[i].min(1.0)).abs()).sum();
+            let q = e / e0;
+            1.0 / (1.0 + q * q)
         })
         .collect()
 }
@@ -130,7 +156,8 @@ impl<T: Float + Default> NormalSmoothness<T> {
     /// points `centres[j]` and their offsets `offsets[j]`, with normals from
     /// the tetrahedral finite differences of step `fd_step`, and ADDS its
     /// gradient with respect to the SDF field's parameters into `grads`.
-    /// Returns the unweighted mean of ρ.
+    /// `point_weights` (one per centre; `None`: all 1) weigh the pairs.
+    /// Returns the mean of the weighted ρ, without λ.
     #[allow(clippy::too_many_arguments)]
     pub fn forward_backward(
         &mut self,
@@ -140,6 +167,7 @@ impl<T: Float + Default> NormalSmoothness<T> {
         difference: NormalDifference,
         fd_step: f64,
         weight: T,
+        point_weights: Option<&[T]>,
         grads: &mut FieldGrads<T>,
     ) -> f64 {
         let m = pair_points(centres, offsets, &mut self.points);
@@ -163,13 +191,15 @@ impl<T: Float + Default> NormalSmoothness<T> {
         self.d_gradient.resize(n_points, [T::ZERO; 3]);
         let g = &self.ctx.gradient;
         for j in 0..m {
+            let w = point_weights.map_or(T::ONE, |w| w[j]);
+            let scale = scale * w;
             let (n0, len0) = unit3(g[j]);
             let (n1, len1) = unit3(g[m + j]);
             match difference {
                 NormalDifference::First => {
                     let d = [0, 1, 2].map(|a| n1[a] - n0[a]);
                     let (rho, u) = pseudo_huber(d);
-                    sum += to_f64(rho);
+                    sum += to_f64(w * rho);
                     // ∂ρ/∂n(x + ε) = u, ∂ρ/∂n(x) = −u, then through n = g/|g|.
                     let u = u.map(|v| scale * v);
                     self.d_gradient[m + j] = unit3_backward(u, n1, len1);
@@ -179,7 +209,7 @@ impl<T: Float + Default> NormalSmoothness<T> {
                     let (n2, len2) = unit3(g[2 * m + j]);
                     let sd = second_difference(n0, n1, n2);
                     let (rho, u) = pseudo_huber(sd.tangential);
-                    sum += to_f64(rho);
+                    sum += to_f64(w * rho);
                     let (d0, pu) = sd.backward(n0, u.map(|v| scale * v));
                     self.d_gradient[m + j] = unit3_backward(pu, n1, len1);
                     self.d_gradient[2 * m + j] = unit3_backward(pu, n2, len2);

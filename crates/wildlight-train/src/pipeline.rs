@@ -323,8 +323,16 @@ impl<T: Float + Default> Pipeline<T> {
     /// each the unit expected normal Σ w_k n_k / |Σ w_k n_k| (zero where
     /// that sum vanishes).
     pub fn surface_points(&self, min_acc: f64) -> (Vec<[T; 3]>, Vec<[T; 3]>) {
+        let (centres, normals, _) = self.surface_points_of_rays(min_acc);
+        (centres, normals)
+    }
+
+    /// [`Pipeline::surface_points`] with the index of each point's ray.
+    #[allow(clippy::type_complexity)]
+    pub fn surface_points_of_rays(&self, min_acc: f64) -> (Vec<[T; 3]>, Vec<[T; 3]>, Vec<usize>) {
         let offsets = &self.samples.offsets;
-        (0..offsets.len().saturating_sub(1))
+        let mut rays = Vec::new();
+        let (centres, normals) = (0..offsets.len().saturating_sub(1))
             .filter_map(|r| {
                 let acc = self.weights.acc_weight[r];
                 if to_f64(acc) < min_acc {
@@ -338,9 +346,11 @@ impl<T: Float + Default> Pipeline<T> {
                         n[a] += w * self.normals[k][a];
                     }
                 }
+                rays.push(r);
                 Some((p.map(|c| c / acc), unit3(n).0))
             })
-            .unzip()
+            .unzip();
+        (centres, normals, rays)
     }
 
     /// Backward pass of the last forward pass: `d_colour` = ∂L/∂C and

@@ -703,7 +703,7 @@ impl Trainer {
         if !smooth && !binary_on {
             return (0.0, 0.0, 0.0);
         }
-        let (centres, normals) = self.pipeline.surface_points(0.5);
+        let (centres, normals, point_rays) = self.pipeline.surface_points_of_rays(0.5);
         let binary = if binary_on {
             let min_resolution = loss.binary_metallic_min_resolution;
             let scope = if loss.binary_metallic_readout_only {
@@ -802,6 +802,14 @@ impl Trainer {
             };
             let normal_offsets =
                 normal_smoothness::pair_offsets(&offsets, &normals, loss.normal_difference, scale);
+            let point_weights = (loss.normal_smoothness_relax > 0.0).then(|| {
+                normal_smoothness::relaxed_weights(
+                    &point_rays,
+                    &self.pipeline.colour,
+                    &self.batch.target,
+                    loss.normal_smoothness_relax as f32,
+                )
+            });
             self.normal_smoothness.forward_backward(
                 &self.model.sdf,
                 &centres,
@@ -809,6 +817,7 @@ impl Trainer {
                 loss.normal_difference,
                 fd_step,
                 normal_weight as f32,
+                point_weights.as_deref(),
                 &mut self.grads.sdf,
             )
         } else {

@@ -10,7 +10,7 @@ use wildlight_fields::{FdScheme, NormalContext};
 use wildlight_train::config::NormalDifference;
 use wildlight_train::model::Model;
 use wildlight_train::normal_smoothness::{
-    HUBER_ETA, NormalSmoothness, pair_offsets, pseudo_huber, second_difference,
+    HUBER_ETA, NormalSmoothness, pair_offsets, pseudo_huber, relaxed_weights, second_difference,
 };
 
 fn tiny_sdf_model() -> Model<f64> {
@@ -45,11 +45,34 @@ fn loss(
     difference: NormalDifference,
     grads: Option<&mut wildlight_fields::FieldGrads<f64>>,
 ) -> f64 {
+    weighted_loss(model, difference, None, grads)
+}
+
+/// [`loss`] with a weight per pair.
+fn weighted_loss(
+    model: &Model<f64>,
+    difference: NormalDifference,
+    point_weights: Option<&[f64]>,
+    grads: Option<&mut wildlight_fields::FieldGrads<f64>>,
+) -> f64 {
     let mut term = NormalSmoothness::<f64>::default();
     let mut scratch = model.sdf.new_grads();
     let g = grads.unwrap_or(&mut scratch);
-    WEIGHT * term.forward_backward(&model.sdf, &CENTRES, &OFFSETS, difference, STEP, WEIGHT, g)
+    WEIGHT
+        * term.forward_backward(
+            &model.sdf,
+            &CENTRES,
+            &OFFSETS,
+            difference,
+            STEP,
+            WEIGHT,
+            point_weights,
+            g,
+        )
 }
+
+/// Weights between 0 and 1 for the four pairs (`loss.normal_smoothness_relax`).
+const PAIR_WEIGHTS: [f64; 4] = [1.0, 0.25, 0.0, 0.6];
 
 fn unit(g: [f64; 3]) -> [f64; 3] {
     let l = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
@@ -120,6 +143,7 @@ fn normal_smoothness_is_the_mean_pseudo_huber_difference_of_the_normals() {
             which,
             STEP,
             1.0,
+            None,
             &mut g,
         );
         assert_eq!(zero, 0.0, "{which:?}");
@@ -200,6 +224,69 @@ fn normal_smoothness_gradient_matches_finite_differences() {
             probed >= 10,
             "{which:?}: only {probed} parameters had a gradient"
         );
+    }
+}
+
+/// Weighted pairs: the value is the mean of w_j ρ_j (a pair of weight 0
+/// costs nothing), and the gradient matches central differences.
+#[test]
+fn weighted_pairs_scale_their_penalty_and_its_gradient() {
+    for which in DIFFERENCES {
+        let mut model = tiny_sdf_model();
+        let by_hand = CENTRES
+            .iter()
+            .zip(&OFFSETS)
+            .zip(PAIR_WEIGHTS)
+            .map(|((c, e), w)| w * pseudo_huber_by_hand(difference_by_hand(&model, *c, *e, which)))
+            .sum::<f64>()
+            / CENTRES.len() as f64;
+        let value = weighted_loss(&model, which, Some(&PAIR_WEIGHTS), None) / WEIGHT;
+        assert!(
+            (value - by_hand).abs() < 1e-12,
+            "{which:?}: {value} vs {by_hand}"
+        );
+        let unweighted = loss(&model, which, None) / WEIGHT;
+        assert!(
+            value < unweighted - 1e-3,
+            "{which:?}: {value} vs {unweighted}"
+        );
+
+        let mut grads = model.sdf.new_grads();
+        weighted_loss(&model, which, Some(&PAIR_WEIGHTS), Some(&mut grads));
+        let probed = common::check_field_gradient_with_floor(
+            &mut model,
+            |m| &mut m.sdf.field,
+            &grads,
+            |m| weighted_loss(m, which, Some(&PAIR_WEIGHTS), None),
+            1e-5,
+        );
+        assert!(probed >= 10, "{which:?}: only {probed} probed");
+    }
+}
+
+/// `loss.normal_smoothness_relax`: a ray the model matches keeps weight 1,
+/// one off by e₀ (L1 over the channels) weighs ½, one off by 3 e₀ a tenth,
+/// and values above 1 count as 1 on both sides (a clipped photo is matched
+/// by any prediction at or above it).
+#[test]
+fn relaxed_weights_fall_with_the_rays_colour_error() {
+    let colour = [
+        [0.5, 0.4, 0.3],
+        [0.55, 0.4, 0.35],
+        [0.1, 0.1, 0.1],
+        [1.7, 2.0, 1.2],
+    ];
+    let target = [
+        [0.5, 0.4, 0.3],
+        [0.5, 0.4, 0.3],
+        [0.2, 0.2, 0.2],
+        [1.0, 1.0, 1.0],
+    ];
+    // rays 1 and 2 are off by 0.1 and 0.3; points come from rays 2, 0, 1, 3
+    let w = relaxed_weights(&[2, 0, 1, 3], &colour, &target, 0.1);
+    let expected = [0.1, 1.0, 0.5, 1.0];
+    for (got, want) in w.iter().zip(expected) {
+        assert!((got - want).abs() < 1e-5, "{w:?} vs {expected:?}");
     }
 }
 
