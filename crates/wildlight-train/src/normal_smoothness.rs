@@ -41,6 +41,7 @@
 
 use crate::config::NormalDifference;
 use crate::float::{Float, dot3, of, sqrt, to_f64, unit3, unit3_backward};
+use crate::loss::counted_l1;
 use crate::smoothness::pair_points;
 use wildlight_fields::{FdScheme, FieldGrads, NormalContext, SdfField};
 
@@ -68,21 +69,21 @@ pub fn pair_offsets(
 }
 
 /// The weight 1 / (1 + (e / e₀)²) of each surface point's pair for
-/// `loss.normal_smoothness_relax` = e₀: e is the L1 colour error of the
-/// point's ray `rays[j]` (rendered `colour` against observed `target`, both
-/// clipped at 1, summed over the channels), so the prior lets go where the
-/// model cannot match the photo with the surface it has (a bridged crease).
+/// `loss.normal_smoothness_relax` = e₀: e is the colour error of the
+/// point's ray `rays[j]` (rendered `colour` against observed `target`) under
+/// the colour loss's own saturation rule ([`counted_l1`] with the capture's
+/// clipping level `cap`), so the prior lets go where the model cannot match
+/// the photo with the surface it has (a bridged crease).
 pub fn relaxed_weights(
     rays: &[usize],
     colour: &[[f32; 3]],
     target: &[[f32; 3]],
+    cap: Option<f32>,
     e0: f32,
 ) -> Vec<f32> {
     rays.iter()
         .map(|&r| {
-            let (c, t) = (colour[r], target[r]);
-            let e: f32 = (0..3).map(|i| (c[i].min(1.0) - t[i].min(1.0)).abs()).sum();
-            let q = e / e0;
+            let q = counted_l1(colour[r], target[r], cap) / e0;
             1.0 / (1.0 + q * q)
         })
         .collect()

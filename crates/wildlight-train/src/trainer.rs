@@ -807,6 +807,7 @@ impl Trainer {
                     &point_rays,
                     &self.pipeline.colour,
                     &self.batch.target,
+                    self.rays.saturation,
                     loss.normal_smoothness_relax as f32,
                 )
             });

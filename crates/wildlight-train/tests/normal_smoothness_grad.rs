@@ -275,19 +275,28 @@ fn relaxed_weights_fall_with_the_rays_colour_error() {
         [0.55, 0.4, 0.35],
         [0.1, 0.1, 0.1],
         [1.7, 2.0, 1.2],
+        [0.5, 0.4, 1.2],
     ];
     let target = [
         [0.5, 0.4, 0.3],
         [0.5, 0.4, 0.3],
         [0.2, 0.2, 0.2],
         [1.0, 1.0, 1.0],
+        [0.5, 0.4, 0.9],
     ];
-    // rays 1 and 2 are off by 0.1 and 0.3; points come from rays 2, 0, 1, 3
-    let w = relaxed_weights(&[2, 0, 1, 3], &colour, &target, 0.1);
-    let expected = [0.1, 1.0, 0.5, 1.0];
+    // Rays 1 and 2 are off by 0.1 and 0.3. Ray 3 over-shoots a photo that
+    // clips at the cap: saturated, so no error. Ray 4 over-shoots a photo
+    // below the cap by 0.3: counted in full (the prediction is not clipped).
+    let cap = Some(1.0);
+    let w = relaxed_weights(&[2, 0, 1, 3, 4], &colour, &target, cap, 0.1);
+    let expected = [0.1, 1.0, 0.5, 1.0, 0.1];
     for (got, want) in w.iter().zip(expected) {
         assert!((got - want).abs() < 1e-5, "{w:?} vs {expected:?}");
     }
+    // Without a cap (a capture that does not clip) ray 3's error counts:
+    // 0.7 + 1.0 + 0.2 = 1.9, so its weight is 1 / (1 + 19²).
+    let w = relaxed_weights(&[3], &colour, &target, None, 0.1);
+    assert!((w[0] - 1.0 / 362.0).abs() < 1e-6, "{w:?}");
 }
 
 /// SecondDifference::backward, the prior's ∂ρ(Δ)/∂n for each of the three
