@@ -71,6 +71,12 @@ impl BuiltinScene {
         }
     }
 
+    /// Unit outward normal of the distance function at `p` (central
+    /// differences, step 1e-5; normalized frame).
+    pub fn normal(self, p: DVec3) -> DVec3 {
+        crate::sdf::gradient(&|q| self.distance(q), p, 1e-5).normalize_or_zero()
+    }
+
     /// Ground-truth material at `p` (normalized frame).
     pub fn material(self, p: DVec3) -> Material {
         procedural_material(self.name(), p).unwrap_or_default()
@@ -371,6 +377,18 @@ fn patches_material(p: DVec3) -> Material {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn kettle_normal_points_out_of_the_knob_and_the_body() {
+        let k = BuiltinScene::Kettle;
+        // the knob's sphere (centre y 0.45, radius 0.06) tops the kettle
+        let top = k.normal(DVec3::new(0.0, 0.51, 0.0));
+        assert!((top - DVec3::Y).length() < 1e-6, "{top:?}");
+        // the body's sphere (centre y −0.06, radius 0.42) on its equator, away
+        // from the handle (−x) and the spout (+x)
+        let side = k.normal(DVec3::new(0.0, -0.06, 0.42));
+        assert!((side - DVec3::Z).length() < 1e-6, "{side:?}");
+    }
 
     #[test]
     fn scenes_fit_inside_radius_point_eight_and_contain_the_origin_region() {

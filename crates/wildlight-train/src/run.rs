@@ -89,6 +89,23 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
+/// Creates the run folder `out` (with its `previews` folder) and writes its
+/// resolved configuration and the dataset it trains on (made absolute).
+pub fn write_run_files(out: &Path, config: &TrainConfig, data: &Path) -> anyhow::Result<()> {
+    std::fs::create_dir_all(out.join("previews"))
+        .with_context(|| format!("cannot create {}", out.display()))?;
+    let data_abs = std::fs::canonicalize(data).unwrap_or(data.to_path_buf());
+    write_atomic(&out.join(CONFIG_FILE), config.to_toml().as_bytes())?;
+    write_atomic(
+        &out.join(RUN_FILE),
+        serde_json::to_string_pretty(&RunInfo {
+            data: data_abs,
+            version: env!("CARGO_PKG_VERSION").to_string(),
+        })?
+        .as_bytes(),
+    )
+}
+
 /// Reads a run folder's configuration and dataset path.
 pub fn read_run(run: &Path) -> anyhow::Result<(TrainConfig, RunInfo)> {
     let cfg_path = run.join(CONFIG_FILE);
@@ -164,18 +181,7 @@ pub fn train(opts: &RunOptions) -> anyhow::Result<RunSummary> {
     for w in &warnings {
         eprintln!("warning: {w}");
     }
-    std::fs::create_dir_all(opts.out.join("previews"))
-        .with_context(|| format!("cannot create {}", opts.out.display()))?;
-    let data_abs = std::fs::canonicalize(&data).unwrap_or(data.clone());
-    write_atomic(&opts.out.join(CONFIG_FILE), config.to_toml().as_bytes())?;
-    write_atomic(
-        &opts.out.join(RUN_FILE),
-        serde_json::to_string_pretty(&RunInfo {
-            data: data_abs,
-            version: env!("CARGO_PKG_VERSION").to_string(),
-        })?
-        .as_bytes(),
-    )?;
+    write_run_files(&opts.out, &config, &data)?;
 
     let rays = TrainingRays::new(&dataset);
     let mut trainer = Trainer::new(config.clone(), rays)?;
