@@ -19,7 +19,8 @@
 //! that an exact SDF with perfect materials and ambient light reaches on
 //! these photos, and what it loses is lost to that shading. The flash
 //! energy E is the median ratio of the flash map to the unit-energy flash
-//! term with the capture's normals (printed; constant for a capture).
+//! term with the capture's normals (printed; constant for a capture); the
+//! BRDF settings are the capture's (`gt/material.json`).
 //!
 //! ```sh
 //! cargo run --release -p wildlight-train --example flash_ceiling -- kettle CAPTURE
@@ -30,7 +31,8 @@ use glam::DVec3;
 use std::path::Path;
 use wildlight_data::exr_io::{read_exr_channels, read_exr_rgb};
 use wildlight_material::PARAM_COUNT;
-use wildlight_material::brdf::{BrdfSettings, eval};
+use wildlight_material::brdf::eval;
+use wildlight_synth::ground_truth::GroundTruthMaterial;
 use wildlight_synth::scenes::BuiltinScene;
 use wildlight_train::run::load_capture;
 
@@ -53,6 +55,9 @@ fn main() -> Result<()> {
         .as_ref()
         .with_context(|| format!("{}: no val/ split", capture.display()))?;
     let cap = val.saturation.unwrap_or(f32::INFINITY);
+    // the BRDF settings the capture was rendered with
+    let settings =
+        GroundTruthMaterial::load(&capture.join("gt").join("material.json"))?.brdf_settings;
     let gt = capture.join("val").join("gt");
     let (mut pooled, mut count) = ([0.0f64; 2], 0usize);
     // per-view PSNRs, for their mean (the figure `eval images` reports)
@@ -95,7 +100,7 @@ fn main() -> Result<()> {
                 let exact = scene.normal(ray.origin + dir * t);
                 let term = |n: DVec3| {
                     let c = n.dot(-dir).max(0.0) as f32;
-                    eval(&theta, c, &BrdfSettings::default()).map(|r| r * c / (t * t) as f32)
+                    eval(&theta, c, &settings).map(|r| r * c / (t * t) as f32)
                 };
                 pixels.push((i, term(captured), term(exact)));
             }
