@@ -255,8 +255,9 @@ pub struct LossConfig {
     pub normal_smoothness_final: f64,
     /// Relaxes the normal prior where the photo disagrees with the model:
     /// each pair weighs 1 / (1 + (e / e₀)²), e the L1 colour error of the
-    /// ray it came from (its three channels, both sides clipped at 1) and
-    /// e₀ this setting (0, the default: every pair weighs 1). A crease the
+    /// ray it came from (its three channels, under the colour loss's
+    /// saturation rule: a channel where both the prediction and the photo
+    /// reach the capture's clipping level counts 0) and e₀ this setting (0, the default: every pair weighs 1). A crease the
     /// smooth surface bridges keeps its rays' error high, and the prior then
     /// stops holding the surface flat there. At 3,000 steps (seeds 0 / 1;
     /// defaults 25.44 / 24.68 dB, views 27.53 / 29.51 and 27.53 / 29.09 dB)

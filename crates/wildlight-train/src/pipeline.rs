@@ -154,6 +154,17 @@ pub fn eval_sdf<T: Float>(
     }
 }
 
+/// Where the rays of a pass meet the surface ([`Pipeline::surface_points`]).
+#[derive(Clone, Debug, Default)]
+pub struct SurfacePoints<T> {
+    /// The expected hit points.
+    pub centres: Vec<[T; 3]>,
+    /// Their unit expected normals.
+    pub normals: Vec<[T; 3]>,
+    /// The index of each point's ray in the pass.
+    pub rays: Vec<usize>,
+}
+
 impl Pipeline<f32> {
     /// An empty pipeline; `sampler` is the fast sampler to use.
     pub fn new(sampler: Sampler) -> Self {
@@ -319,38 +330,30 @@ impl<T: Float + Default> Pipeline<T> {
     }
 
     /// The expected hit point Σ w_k x_k / Σw of every ray of the last pass
-    /// whose Σw is at least `min_acc` (rays that meet the surface), and for
-    /// each the unit expected normal Σ w_k n_k / |Σ w_k n_k| (zero where
-    /// that sum vanishes).
-    pub fn surface_points(&self, min_acc: f64) -> (Vec<[T; 3]>, Vec<[T; 3]>) {
-        let (centres, normals, _) = self.surface_points_of_rays(min_acc);
-        (centres, normals)
-    }
-
-    /// [`Pipeline::surface_points`] with the index of each point's ray.
-    #[allow(clippy::type_complexity)]
-    pub fn surface_points_of_rays(&self, min_acc: f64) -> (Vec<[T; 3]>, Vec<[T; 3]>, Vec<usize>) {
+    /// whose Σw is at least `min_acc` (rays that meet the surface), with
+    /// the unit expected normal Σ w_k n_k / |Σ w_k n_k| (zero where that
+    /// sum vanishes) and the index of the ray.
+    pub fn surface_points(&self, min_acc: f64) -> SurfacePoints<T> {
         let offsets = &self.samples.offsets;
-        let mut rays = Vec::new();
-        let (centres, normals) = (0..offsets.len().saturating_sub(1))
-            .filter_map(|r| {
-                let acc = self.weights.acc_weight[r];
-                if to_f64(acc) < min_acc {
-                    return None;
+        let mut points = SurfacePoints::default();
+        for r in 0..offsets.len().saturating_sub(1) {
+            let acc = self.weights.acc_weight[r];
+            if to_f64(acc) < min_acc {
+                continue;
+            }
+            let (mut p, mut n) = ([T::ZERO; 3], [T::ZERO; 3]);
+            for k in offsets[r] as usize..offsets[r + 1] as usize {
+                let (w, x) = (self.weights.weight[k], self.samples.positions[k]);
+                for a in 0..3 {
+                    p[a] += w * x[a];
+                    n[a] += w * self.normals[k][a];
                 }
-                let (mut p, mut n) = ([T::ZERO; 3], [T::ZERO; 3]);
-                for k in offsets[r] as usize..offsets[r + 1] as usize {
-                    let (w, x) = (self.weights.weight[k], self.samples.positions[k]);
-                    for a in 0..3 {
-                        p[a] += w * x[a];
-                        n[a] += w * self.normals[k][a];
-                    }
-                }
-                rays.push(r);
-                Some((p.map(|c| c / acc), unit3(n).0))
-            })
-            .unzip();
-        (centres, normals, rays)
+            }
+            points.centres.push(p.map(|c| c / acc));
+            points.normals.push(unit3(n).0);
+            points.rays.push(r);
+        }
+        points
     }
 
     /// Backward pass of the last forward pass: `d_colour` = ∂L/∂C and

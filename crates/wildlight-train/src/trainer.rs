@@ -11,7 +11,7 @@ use crate::material_field::MaterialField;
 use crate::metallic_prior::{BinaryMetallic, MetalAnchor, PushScope};
 use crate::model::{Model, ModelGrads};
 use crate::normal_smoothness::{self, NormalSmoothness};
-use crate::pipeline::{PassSettings, Pipeline, RayInputs, eval_sdf};
+use crate::pipeline::{PassSettings, Pipeline, RayInputs, SurfacePoints, eval_sdf};
 use crate::rays::{RayBatch, RayShares, TrainingRays};
 use crate::smoothness::{MaterialSmoothness, SmoothnessSettings};
 use crate::visual_hull::HullPrior;
@@ -703,7 +703,11 @@ impl Trainer {
         if !smooth && !binary_on {
             return (0.0, 0.0, 0.0);
         }
-        let (centres, normals, point_rays) = self.pipeline.surface_points_of_rays(0.5);
+        let SurfacePoints {
+            centres,
+            normals,
+            rays: point_rays,
+        } = self.pipeline.surface_points(0.5);
         let binary = if binary_on {
             let min_resolution = loss.binary_metallic_min_resolution;
             let scope = if loss.binary_metallic_readout_only {

@@ -266,8 +266,8 @@ fn weighted_pairs_scale_their_penalty_and_its_gradient() {
 
 /// `loss.normal_smoothness_relax`: a ray the model matches keeps weight 1,
 /// one off by e₀ (L1 over the channels) weighs ½, one off by 3 e₀ a tenth,
-/// and values above 1 count as 1 on both sides (a clipped photo is matched
-/// by any prediction at or above it).
+/// under the colour loss's saturation rule (a clipped photo is matched by
+/// any prediction at or above the cap; an unclipped one is not).
 #[test]
 fn relaxed_weights_fall_with_the_rays_colour_error() {
     let colour = [
