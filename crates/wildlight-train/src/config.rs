@@ -639,8 +639,9 @@ impl Default for FieldLrFactors {
     }
 }
 
-/// A hash-grid + MLP field's size. In a TOML file each field's table is
-/// given whole (all six keys) or left out.
+/// A hash-grid + MLP field's size. In a TOML file a field's table may give
+/// any of its keys: the others keep that field's defaults (an optional
+/// field such as `model.metallic_field` has none and is given whole).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FieldSize {
@@ -660,6 +661,53 @@ pub struct FieldSize {
     #[serde(default)]
     pub interpolation: Interpolation,
 }
+
+/// A [`FieldSize`] table in which any key may be left out.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PartialFieldSize {
+    levels: Option<usize>,
+    features_per_level: Option<usize>,
+    log2_table_size: Option<u32>,
+    base_resolution: Option<u32>,
+    finest_resolution: Option<u32>,
+    hidden: Option<Vec<usize>>,
+    interpolation: Option<Interpolation>,
+}
+
+impl PartialFieldSize {
+    /// The keys given, the others from `defaults`.
+    fn over(self, defaults: FieldSize) -> FieldSize {
+        FieldSize {
+            levels: self.levels.unwrap_or(defaults.levels),
+            features_per_level: self
+                .features_per_level
+                .unwrap_or(defaults.features_per_level),
+            log2_table_size: self.log2_table_size.unwrap_or(defaults.log2_table_size),
+            base_resolution: self.base_resolution.unwrap_or(defaults.base_resolution),
+            finest_resolution: self.finest_resolution.unwrap_or(defaults.finest_resolution),
+            hidden: self.hidden.unwrap_or(defaults.hidden),
+            interpolation: self.interpolation.unwrap_or(defaults.interpolation),
+        }
+    }
+}
+
+/// Deserializers of [`ModelConfig`]'s field tables that fill the keys a
+/// file leaves out from the default of that field.
+macro_rules! field_table_with_defaults {
+    ($($name:ident => $slot:ident),* $(,)?) => {$(
+        fn $name<'de, D: serde::Deserializer<'de>>(d: D) -> Result<FieldSize, D::Error> {
+            Ok(PartialFieldSize::deserialize(d)?.over(ModelConfig::default().$slot))
+        }
+    )*};
+}
+field_table_with_defaults!(
+    sdf_table => sdf,
+    material_table => material,
+    ambient_table => ambient,
+    ambient_specular_table => ambient_specular,
+    ambient_room_table => ambient_room,
+);
 
 impl FieldSize {
     /// The hash-grid settings.
@@ -681,12 +729,14 @@ impl FieldSize {
 #[serde(default, deny_unknown_fields)]
 pub struct ModelConfig {
     /// The SDF field.
+    #[serde(deserialize_with = "sdf_table")]
     pub sdf: FieldSize,
     /// Geometry features the SDF field outputs next to φ.
     pub geometry_features: usize,
     /// Radius of the initial sphere.
     pub init_radius: f32,
     /// The material field (9 parameters through a sigmoid).
+    #[serde(deserialize_with = "material_table")]
     pub material: FieldSize,
     /// Metallic from a field of its own, of this size (absent, the
     /// default: from the material field with the other eight). The
@@ -701,6 +751,7 @@ pub struct ModelConfig {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub metallic_field: Option<FieldSize>,
     /// The ambient radiance field.
+    #[serde(deserialize_with = "ambient_table")]
     pub ambient: FieldSize,
     /// Initial NeuS sharpness parameter v (s = exp(10 v)).
     pub init_sharpness: f32,
@@ -778,6 +829,7 @@ pub struct ModelConfig {
     /// coarse: one room is reflected by every part of the object, and a
     /// field that could vary from one part to the next would let a dark
     /// dielectric pass for a metal again.
+    #[serde(deserialize_with = "ambient_specular_table")]
     pub ambient_specular: FieldSize,
     /// The reflected-direction field of [`AmbientModel::NeuralRoom`]: its
     /// hash grid encodes ω as a point of the unit sphere, so its finest
@@ -787,6 +839,7 @@ pub struct ModelConfig {
     /// colour and lost both kinds of novel view after the 30-minute
     /// benchmark (seed 2): 23.78 against 23.35 dB, views 27.57 / 30.09
     /// against 27.97 / 30.24 dB (flash / no flash), so the default stays.
+    #[serde(deserialize_with = "ambient_room_table")]
     pub ambient_room: FieldSize,
 }
 
@@ -1295,6 +1348,35 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("iterz"), "{err}");
+    }
+
+    #[test]
+    fn a_field_table_may_give_some_keys() {
+        let c = TrainConfig::from_toml(
+            "[model.ambient]\nhidden = [32]\n[model.sdf]\nfinest_resolution = 512\n",
+        )
+        .unwrap();
+        let d = ModelConfig::default();
+        assert_eq!(c.model.ambient.hidden, vec![32]);
+        assert_eq!(
+            c.model.ambient,
+            FieldSize {
+                hidden: vec![32],
+                ..d.ambient.clone()
+            }
+        );
+        // The SDF's own defaults fill its table (smoothstep, 14 levels),
+        // not those of another field or of the type.
+        assert_eq!(c.model.sdf.finest_resolution, 512);
+        assert_eq!(c.model.sdf.levels, d.sdf.levels);
+        assert_eq!(c.model.sdf.interpolation, Interpolation::Smoothstep);
+        assert_eq!(c.model.material, d.material);
+        // A misspelt key is still an error that names it and its line.
+        let err =
+            TrainConfig::from_toml("[model]\ninit_radius = 0.4\n[model.ambient]\nlevelz = 4\n")
+                .unwrap_err()
+                .to_string();
+        assert!(err.contains("levelz") && err.contains("line 4"), "{err}");
     }
 
     #[test]
