@@ -48,6 +48,14 @@ pub struct Args {
     pub quiet: bool,
 }
 
+/// The comment that heads `--print-config`'s output.
+const CONFIG_HEADER: &str = "\
+# wildlight train: the resolved configuration (defaults, then --config, then
+# --iters and --seed). A file given to --config may keep only the keys it
+# changes, in any table; every key is documented on `TrainConfig` and the
+# types it holds (crates/wildlight-train/src/config.rs).
+";
+
 /// Runs `wildlight train`.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut config = match &args.config {
@@ -66,7 +74,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     config.validate().map_err(anyhow::Error::msg)?;
     if args.print_config {
-        print!("{}", config.to_toml());
+        print!("{CONFIG_HEADER}{}", config.to_toml());
         return Ok(());
     }
     let out = args.out.context("--out is required")?;

@@ -1,0 +1,73 @@
+//! `wildlight train --config` and `--print-config` from the outside: the
+//! printed configuration reads back as the same configuration, a file may
+//! give only the keys it changes, and a bad file fails with its path and
+//! the key named.
+
+mod common;
+
+use common::{path_arg, run};
+
+/// `train --print-config` with `args`, which must succeed; its stdout.
+fn printed(args: &[&str]) -> String {
+    let mut all = vec!["train", "--print-config"];
+    all.extend_from_slice(args);
+    let out = run(&all);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).expect("UTF-8 TOML")
+}
+
+/// The value of `key` in `[table]` of a printed configuration (the line's
+/// text after `key = `).
+fn value_in<'a>(toml: &'a str, table: &str, key: &str) -> Option<&'a str> {
+    let start = toml.find(&format!("\n[{table}]\n"))?;
+    toml[start + 1..]
+        .lines()
+        .skip(1)
+        .take_while(|l| !l.starts_with('['))
+        .find_map(|l| l.strip_prefix(&format!("{key} = ")))
+}
+
+#[test]
+fn the_printed_configuration_reads_back_unchanged() {
+    let first = printed(&["--iters", "7", "--seed", "3"]);
+    assert!(first.starts_with("# wildlight train"), "{first}");
+    assert!(first.contains("\niters = 7\n") && first.contains("seed = 3\n"));
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("my.toml");
+    std::fs::write(&file, &first).unwrap();
+    assert_eq!(printed(&["--config", path_arg(&file)]), first);
+}
+
+#[test]
+fn a_file_may_give_some_keys_of_a_field_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("partial.toml");
+    std::fs::write(&file, "[model.ambient]\nhidden = [32]\n").unwrap();
+    let toml = printed(&["--config", path_arg(&file)]);
+    let defaults = printed(&[]);
+    assert_eq!(value_in(&toml, "model.ambient", "hidden"), Some("[32]"));
+    for key in ["levels", "log2_table_size", "finest_resolution"] {
+        let (given, default) = (
+            value_in(&toml, "model.ambient", key),
+            value_in(&defaults, "model.ambient", key),
+        );
+        assert!(default.is_some(), "{key} is printed");
+        assert_eq!(given, default, "{key}");
+    }
+}
+
+#[test]
+fn a_misspelt_key_fails_with_the_file_and_the_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("bad.toml");
+    std::fs::write(&file, "[model.ambient]\nlevelz = 4\n").unwrap();
+    let out = run(&["train", "--print-config", "--config", path_arg(&file)]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("bad.toml") && err.contains("levelz"), "{err}");
+    assert!(out.stdout.is_empty(), "nothing printed on failure");
+}
