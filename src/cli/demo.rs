@@ -152,6 +152,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         time_budget,
         snapshot_every: None,
         resume: false,
+        resume_iters: None,
         progress,
     })?;
 

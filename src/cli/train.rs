@@ -24,7 +24,8 @@ pub struct Args {
     /// Print the resolved configuration (defaults + --config + overrides) and exit.
     #[arg(long)]
     pub print_config: bool,
-    /// Optimisation steps [default: the configuration's `iters`, 4000].
+    /// Optimisation steps [default: the configuration's `iters`, 4000; with --resume, the
+    /// run's own].
     #[arg(long, value_name = "N")]
     pub iters: Option<u64>,
     /// Stop after this much wall time, e.g. 90s, 30m, 1h30m (a checkpoint is written)
@@ -39,8 +40,8 @@ pub struct Args {
     /// Seed of every random choice [default: the configuration's `seed`, 0].
     #[arg(long, value_name = "S")]
     pub seed: Option<u64>,
-    /// Continue the run in --out from its last checkpoint (with its own configuration;
-    /// --iters may raise the step count).
+    /// Continue the run in --out from its last checkpoint, with its own configuration and
+    /// step count (--iters may raise it, not lower it).
     #[arg(long)]
     pub resume: bool,
     /// No progress bar (there is none either when stderr is not a terminal).
@@ -85,6 +86,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         time_budget: args.time_budget,
         snapshot_every: args.snapshot_every,
         resume: args.resume,
+        resume_iters: args.iters,
         progress: !args.quiet && std::io::IsTerminal::is_terminal(&std::io::stderr()),
     })?;
     let last = summary.last.as_ref();

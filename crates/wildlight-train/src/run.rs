@@ -53,8 +53,7 @@ pub struct RunOptions {
     pub data: Option<PathBuf>,
     /// Run folder.
     pub out: PathBuf,
-    /// The configuration (ignored with `resume`: the run's own is used,
-    /// except `iters`, which may be raised).
+    /// The configuration (ignored with `resume`: the run's own is used).
     pub config: TrainConfig,
     /// Stop after this much wall time.
     pub time_budget: Option<Duration>,
@@ -65,6 +64,9 @@ pub struct RunOptions {
     pub snapshot_every: Option<Duration>,
     /// Continue the run in `out` from its checkpoint.
     pub resume: bool,
+    /// With `resume`: train on to this many steps in all, if more than the
+    /// run's own `iters` (`None`: the run's own step count).
+    pub resume_iters: Option<u64>,
     /// Show a progress bar.
     pub progress: bool,
 }
@@ -161,7 +163,9 @@ pub fn train(opts: &RunOptions) -> anyhow::Result<RunSummary> {
                 opts.out.display()
             );
         }
-        config.iters = config.iters.max(opts.config.iters);
+        if let Some(n) = opts.resume_iters {
+            config.iters = config.iters.max(n);
+        }
         (config, opts.data.clone().unwrap_or(info.data))
     } else {
         if ckpt.exists() {

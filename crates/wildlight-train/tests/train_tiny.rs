@@ -310,6 +310,7 @@ fn a_trained_run_loads_the_parameter_average() {
         time_budget: None,
         snapshot_every: None,
         resume: false,
+        resume_iters: None,
         progress: false,
     })
     .unwrap();
@@ -849,6 +850,7 @@ fn snapshots_keep_the_model_at_marks_of_wall_time() {
         // every step takes longer than this: one snapshot per step
         snapshot_every: Some(std::time::Duration::from_micros(1)),
         resume: false,
+        resume_iters: None,
         progress: false,
     })
     .unwrap();
@@ -887,4 +889,47 @@ fn snapshots_keep_the_model_at_marks_of_wall_time() {
     let (step, first) = params(&snaps.join("step_000001"));
     assert_eq!(step, 1);
     assert_ne!(first, last);
+}
+
+/// A resumed run trains on to its own step count, not to a default one;
+/// `resume_iters` may raise it, never lower it.
+#[test]
+fn resume_trains_on_to_the_runs_own_step_count() {
+    use wildlight_train::run::{RunOptions, train};
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("capture");
+    capture(&data, 6, 24);
+    let out = dir.path().join("run");
+    let mut config = small_config(4);
+    config.batch_rays = 96;
+    config.output.preview_every = 0;
+    let options =
+        |resume: bool, resume_iters: Option<u64>, budget: Option<std::time::Duration>| RunOptions {
+            data: Some(data.clone()),
+            out: out.clone(),
+            // what the command line passes: its defaults (4,000 steps), which
+            // a resumed run ignores
+            config: if resume {
+                TrainConfig::default()
+            } else {
+                config.clone()
+            },
+            time_budget: budget,
+            snapshot_every: None,
+            resume,
+            resume_iters,
+            progress: false,
+        };
+    // Interrupted by its time budget after the first step or so.
+    let first = train(&options(
+        false,
+        None,
+        Some(std::time::Duration::from_micros(1)),
+    ))
+    .unwrap();
+    assert!(first.steps < 4, "{} steps", first.steps);
+    assert_eq!(train(&options(true, None, None)).unwrap().steps, 4);
+    assert_eq!(train(&options(true, None, None)).unwrap().steps, 4);
+    assert_eq!(train(&options(true, Some(6), None)).unwrap().steps, 6);
+    assert_eq!(train(&options(true, Some(3), None)).unwrap().steps, 6);
 }
