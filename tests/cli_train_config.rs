@@ -71,3 +71,26 @@ fn a_misspelt_key_fails_with_the_file_and_the_key() {
     assert!(err.contains("bad.toml") && err.contains("levelz"), "{err}");
     assert!(out.stdout.is_empty(), "nothing printed on failure");
 }
+
+#[test]
+fn with_resume_the_runs_own_configuration_is_printed() {
+    let dir = tempfile::tempdir().unwrap();
+    let run_dir = dir.path().join("run");
+    std::fs::create_dir(&run_dir).unwrap();
+    // a run folder's two description files, as `train` writes them
+    let own = printed(&["--iters", "9", "--seed", "4"]);
+    std::fs::write(run_dir.join("config.toml"), &own).unwrap();
+    std::fs::write(
+        run_dir.join("run.json"),
+        r#"{"data": "/nowhere/capture", "version": "0"}"#,
+    )
+    .unwrap();
+    let out = path_arg(&run_dir);
+    let resumed = printed(&["--resume", "--out", out]);
+    assert!(resumed.contains("\niters = 9\n") && resumed.contains("seed = 4\n"));
+    // --iters raises the run's step count and never lowers it
+    let raised = printed(&["--resume", "--out", out, "--iters", "12"]);
+    assert!(raised.contains("\niters = 12\n"), "{raised}");
+    let kept = printed(&["--resume", "--out", out, "--iters", "5"]);
+    assert!(kept.contains("\niters = 9\n"), "{kept}");
+}

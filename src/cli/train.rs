@@ -4,7 +4,7 @@ use anyhow::Context;
 use std::path::PathBuf;
 use wildlight_train::TrainConfig;
 use wildlight_train::config::parse_duration;
-use wildlight_train::run::{RunOptions, train};
+use wildlight_train::run::{RunOptions, read_run, train};
 
 /// Options of `wildlight train`.
 #[derive(clap::Args, Debug)]
@@ -21,7 +21,8 @@ pub struct Args {
     /// config.toml is used).
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
-    /// Print the resolved configuration (defaults + --config + overrides) and exit.
+    /// Print the resolved configuration (defaults + --config + overrides; with --resume,
+    /// the run's own) and exit.
     #[arg(long)]
     pub print_config: bool,
     /// Optimisation steps [default: the configuration's `iters`, 4000; with --resume, the
@@ -52,9 +53,10 @@ pub struct Args {
 /// The comment that heads `--print-config`'s output.
 const CONFIG_HEADER: &str = "\
 # wildlight train: the resolved configuration (defaults, then --config, then
-# --iters and --seed). A file given to --config may keep only the keys it
-# changes, in any table; every key is documented on `TrainConfig` and the
-# types it holds (crates/wildlight-train/src/config.rs).
+# --iters and --seed; with --resume, the run's own, --iters raising its step
+# count). A file given to --config may keep only the keys it changes, in any
+# table; every key is documented on `TrainConfig` and the types it holds
+# (crates/wildlight-train/src/config.rs).
 ";
 
 /// Runs `wildlight train`.
@@ -75,7 +77,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     config.validate().map_err(anyhow::Error::msg)?;
     if args.print_config {
-        print!("{CONFIG_HEADER}{}", config.to_toml());
+        let shown = match (&args.out, args.resume) {
+            (Some(out), true) => {
+                let (mut own, _) = read_run(out)?;
+                if let Some(n) = args.iters {
+                    own.iters = own.iters.max(n);
+                }
+                own
+            }
+            (None, true) => anyhow::bail!("--resume needs --out: the run folder to continue"),
+            _ => config,
+        };
+        print!("{CONFIG_HEADER}{}", shown.to_toml());
         return Ok(());
     }
     let out = args.out.context("--out is required")?;
