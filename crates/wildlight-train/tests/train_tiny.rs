@@ -63,6 +63,28 @@ fn small_config(iters: u64) -> TrainConfig {
     c
 }
 
+/// A temporary folder holding a capture of 6 views at 24² (`capture`), the
+/// path of a run folder beside it (`run`, not created yet), and a
+/// configuration of `iters` steps of 96 rays without previews: the setting
+/// of the tests that train through [`wildlight_train::run::train`].
+fn run_setup(
+    iters: u64,
+) -> (
+    tempfile::TempDir,
+    std::path::PathBuf,
+    std::path::PathBuf,
+    TrainConfig,
+) {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("capture");
+    capture(&data, 6, 24);
+    let out = dir.path().join("run");
+    let mut config = small_config(iters);
+    config.batch_rays = 96;
+    config.output.preview_every = 0;
+    (dir, data, out, config)
+}
+
 /// Mean |φ| of the model at the ground-truth surface vertices: the distance
 /// from the true surface to the learned zero level set (one side of eq. 16,
 /// for a field that is close to a distance function).
@@ -294,13 +316,7 @@ fn a_trained_run_loads_the_parameter_average() {
     use wildlight_train::inference::TrainedRun;
     use wildlight_train::run::{CHECKPOINT_FILE, RunOptions, train};
     use wildlight_train::trainer::{AVERAGE_COUNT, AVERAGE_PREFIX, load_model};
-    let dir = tempfile::tempdir().unwrap();
-    let data = dir.path().join("capture");
-    capture(&data, 6, 24);
-    let out = dir.path().join("run");
-    let mut config = small_config(6);
-    config.batch_rays = 96;
-    config.output.preview_every = 0;
+    let (_dir, data, out, mut config) = run_setup(6);
     config.optim.average_from = 0.5;
     config.optim.average_every = 2;
     train(&RunOptions {
@@ -835,13 +851,7 @@ fn the_l2_colour_term_starts_at_its_fraction_of_the_run() {
 #[test]
 fn snapshots_keep_the_model_at_marks_of_wall_time() {
     use wildlight_train::run::{CHECKPOINT_FILE, RunOptions, SnapshotInfo, read_run, train};
-    let dir = tempfile::tempdir().unwrap();
-    let data = dir.path().join("capture");
-    capture(&data, 6, 24);
-    let out = dir.path().join("run");
-    let mut config = small_config(3);
-    config.batch_rays = 96;
-    config.output.preview_every = 0;
+    let (dir, data, out, config) = run_setup(3);
     let summary = train(&RunOptions {
         data: Some(data),
         out: out.clone(),
@@ -896,13 +906,7 @@ fn snapshots_keep_the_model_at_marks_of_wall_time() {
 #[test]
 fn resume_trains_on_to_the_runs_own_step_count() {
     use wildlight_train::run::{RunOptions, train};
-    let dir = tempfile::tempdir().unwrap();
-    let data = dir.path().join("capture");
-    capture(&data, 6, 24);
-    let out = dir.path().join("run");
-    let mut config = small_config(4);
-    config.batch_rays = 96;
-    config.output.preview_every = 0;
+    let (_dir, data, out, config) = run_setup(4);
     let options =
         |resume: bool, resume_iters: Option<u64>, budget: Option<std::time::Duration>| RunOptions {
             data: Some(data.clone()),
