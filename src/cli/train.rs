@@ -4,7 +4,7 @@ use anyhow::Context;
 use std::path::PathBuf;
 use wildlight_train::TrainConfig;
 use wildlight_train::config::parse_duration;
-use wildlight_train::run::{RunOptions, read_run, train};
+use wildlight_train::run::{RunOptions, resumed_config, train};
 
 /// Options of `wildlight train`.
 #[derive(clap::Args, Debug)]
@@ -78,13 +78,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     config.validate().map_err(anyhow::Error::msg)?;
     if args.print_config {
         let shown = match (&args.out, args.resume) {
-            (Some(out), true) => {
-                let (mut own, _) = read_run(out)?;
-                if let Some(n) = args.iters {
-                    own.iters = own.iters.max(n);
-                }
-                own
-            }
+            (Some(out), true) => resumed_config(out, args.iters)?.0,
             (None, true) => anyhow::bail!("--resume needs --out: the run folder to continue"),
             _ => config,
         };

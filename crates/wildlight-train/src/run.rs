@@ -129,6 +129,16 @@ pub fn read_run(run: &Path) -> anyhow::Result<(TrainConfig, RunInfo)> {
     Ok((config, info))
 }
 
+/// The configuration a resumed run trains with, and its description: the
+/// run's own, its step count raised to `iters` when that is more.
+pub fn resumed_config(run: &Path, iters: Option<u64>) -> anyhow::Result<(TrainConfig, RunInfo)> {
+    let (mut config, info) = read_run(run)?;
+    if let Some(n) = iters {
+        config.iters = config.iters.max(n);
+    }
+    Ok((config, info))
+}
+
 /// Loads a capture for training and checks that it can be trained on.
 /// Returns the dataset and the warnings a user should see.
 pub fn load_capture(data: &Path) -> anyhow::Result<(Dataset, Vec<String>)> {
@@ -156,15 +166,12 @@ pub fn load_capture(data: &Path) -> anyhow::Result<(Dataset, Vec<String>)> {
 pub fn train(opts: &RunOptions) -> anyhow::Result<RunSummary> {
     let ckpt = opts.out.join(CHECKPOINT_FILE);
     let (config, data) = if opts.resume {
-        let (mut config, info) = read_run(&opts.out)?;
+        let (config, info) = resumed_config(&opts.out, opts.resume_iters)?;
         if !ckpt.exists() {
             bail!(
                 "{}: nothing to resume (no {CHECKPOINT_FILE})",
                 opts.out.display()
             );
-        }
-        if let Some(n) = opts.resume_iters {
-            config.iters = config.iters.max(n);
         }
         (config, opts.data.clone().unwrap_or(info.data))
     } else {
