@@ -188,3 +188,21 @@ fn bad_asset_input_is_reported() {
     let err = failure(&["render", "--run", d, "--env", "sky"]);
     assert!(err.contains("--asset"), "{err}");
 }
+
+#[test]
+fn a_folder_that_is_not_a_run_is_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = path_arg(dir.path());
+    let err = failure(&["render", "--run", d]);
+    assert!(
+        err.contains("is not a wildlight run folder") && err.contains("config.toml"),
+        "{err}"
+    );
+    // a run folder whose configuration is broken: the file and the key
+    std::fs::write(dir.path().join("config.toml"), "iters = 3\nbogus_key = 1\n").unwrap();
+    let err = failure(&["render", "--run", d]);
+    assert!(
+        err.contains("config.toml") && err.contains("bogus_key"),
+        "{err}"
+    );
+}

@@ -62,11 +62,7 @@ const CONFIG_HEADER: &str = "\
 /// Runs `wildlight train`.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut config = match &args.config {
-        Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .with_context(|| format!("cannot read the configuration {}", p.display()))?;
-            TrainConfig::from_toml(&text).with_context(|| format!("{}", p.display()))?
-        }
+        Some(p) => TrainConfig::load(p)?,
         None => TrainConfig::default(),
     };
     if let Some(n) = args.iters {

@@ -55,10 +55,7 @@ fn main() -> Result<()> {
             s.parse().with_context(|| format!("bad number {s}"))
         })
     };
-    let text = std::fs::read_to_string(config_path)
-        .with_context(|| format!("cannot read {}", config_path.display()))?;
-    let mut config = TrainConfig::from_toml(&text)
-        .with_context(|| format!("{}: not a training configuration", config_path.display()))?;
+    let mut config = TrainConfig::load(config_path)?;
     config.iters = arg(4, config.iters)?;
     config.seed = arg(5, config.seed)?;
     let fit_steps = arg(6, 3000)? as usize;

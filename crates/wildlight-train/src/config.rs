@@ -1057,6 +1057,17 @@ impl TrainConfig {
         toml::from_str(text)
     }
 
+    /// Reads a configuration file ([`Self::from_toml`]); an error names the
+    /// file and, for a file that is not a valid configuration, the key and
+    /// its line.
+    pub fn load(path: &std::path::Path) -> anyhow::Result<Self> {
+        use anyhow::Context;
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read the configuration {}", path.display()))?;
+        Self::from_toml(&text)
+            .with_context(|| format!("{}: not a valid training configuration", path.display()))
+    }
+
     /// The configuration as TOML.
     pub fn to_toml(&self) -> String {
         toml::to_string_pretty(self).expect("the configuration serialises")
@@ -1348,6 +1359,28 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("iterz"), "{err}");
+    }
+
+    #[test]
+    fn load_reads_a_file_and_names_it_in_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let good = dir.path().join("good.toml");
+        std::fs::write(&good, "iters = 12\n[loss]\neikonal = 0.25\n").unwrap();
+        let c = TrainConfig::load(&good).unwrap();
+        assert_eq!((c.iters, c.loss.eikonal), (12, 0.25));
+        assert_eq!(c.loss.mask, TrainConfig::default().loss.mask);
+
+        let missing = dir.path().join("missing.toml");
+        let err = format!("{:#}", TrainConfig::load(&missing).unwrap_err());
+        assert!(err.contains("cannot read the configuration"), "{err}");
+        assert!(err.contains("missing.toml"), "{err}");
+
+        let bad = dir.path().join("bad.toml");
+        std::fs::write(&bad, "iters = 12\n[loss]\neikonall = 0.25\n").unwrap();
+        let err = format!("{:#}", TrainConfig::load(&bad).unwrap_err());
+        assert!(err.contains("bad.toml"), "{err}");
+        assert!(err.contains("eikonall"), "{err}");
+        assert!(err.contains("line 3"), "{err}");
     }
 
     #[test]

@@ -111,15 +111,12 @@ pub fn write_run_files(out: &Path, config: &TrainConfig, data: &Path) -> anyhow:
 /// Reads a run folder's configuration and dataset path.
 pub fn read_run(run: &Path) -> anyhow::Result<(TrainConfig, RunInfo)> {
     let cfg_path = run.join(CONFIG_FILE);
-    let text = std::fs::read_to_string(&cfg_path).with_context(|| {
-        format!(
-            "{} is not a wildlight run folder: cannot read {}",
-            run.display(),
-            cfg_path.display()
-        )
-    })?;
-    let config =
-        TrainConfig::from_toml(&text).with_context(|| format!("{}", cfg_path.display()))?;
+    anyhow::ensure!(
+        cfg_path.is_file(),
+        "{} is not a wildlight run folder: it has no {CONFIG_FILE}",
+        run.display()
+    );
+    let config = TrainConfig::load(&cfg_path)?;
     let info_path = run.join(RUN_FILE);
     let info: RunInfo = serde_json::from_str(
         &std::fs::read_to_string(&info_path)
