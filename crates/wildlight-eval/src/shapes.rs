@@ -95,9 +95,20 @@ pub fn torus(
         }
     }
     let index = |i: u32, j: u32| (i % segments_major) * segments_minor + (j % segments_minor);
-    let mut triangles = Vec::with_capacity((2 * segments_major * segments_minor) as usize);
-    for i in 0..segments_major {
-        for j in 0..segments_minor {
+    TriMesh::new(
+        positions,
+        grid_triangles(segments_major, segments_minor, index),
+    )
+}
+
+/// Two triangles (a, b, c) and (a, c, d) for each cell (i, j) of an
+/// `nu` × `nv` grid of quads, where `index(i, j)` is the vertex at grid
+/// point (i, j) (a = (i, j), b = (i + 1, j), c = (i + 1, j + 1),
+/// d = (i, j + 1)); a closed grid wraps its indices in `index`.
+fn grid_triangles(nu: u32, nv: u32, index: impl Fn(u32, u32) -> u32) -> Vec<[u32; 3]> {
+    let mut triangles = Vec::with_capacity((2 * nu * nv) as usize);
+    for i in 0..nu {
+        for j in 0..nv {
             let (a, b, c, d) = (
                 index(i, j),
                 index(i + 1, j),
@@ -108,7 +119,7 @@ pub fn torus(
             triangles.push([a, c, d]);
         }
     }
-    TriMesh::new(positions, triangles)
+    triangles
 }
 
 /// An axis-aligned box centred at `center` with half extents `half`
@@ -160,21 +171,7 @@ pub fn flat_patch(origin: Vec3, width: f32, height: f32, nx: u32, ny: u32) -> Tr
             );
         }
     }
-    let index = |i: u32, j: u32| j * (nx + 1) + i;
-    let mut triangles = Vec::new();
-    for j in 0..ny {
-        for i in 0..nx {
-            let (a, b, c, d) = (
-                index(i, j),
-                index(i + 1, j),
-                index(i + 1, j + 1),
-                index(i, j + 1),
-            );
-            triangles.push([a, b, c]);
-            triangles.push([a, c, d]);
-        }
-    }
-    TriMesh::new(positions, triangles)
+    TriMesh::new(positions, grid_triangles(nx, ny, |i, j| j * (nx + 1) + i))
 }
 
 /// `count` points spread evenly over a sphere of radius `radius` around
