@@ -11,6 +11,7 @@
 //! - Synthetic meshes for tests and benchmarks ([`shapes`]).
 
 pub mod cameras;
+pub mod colour_fit;
 mod error;
 pub mod image_eval;
 pub mod image_metrics;
@@ -22,6 +23,7 @@ pub mod surface_distance;
 pub mod surface_sampler;
 pub mod visibility;
 
+pub use colour_fit::ColourFit;
 pub use error::EvalError;
 pub use image_eval::{ImageEvaluation, evaluate_images};
 pub use material_eval::{

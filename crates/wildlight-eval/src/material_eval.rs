@@ -28,7 +28,7 @@
 //! folder is missing is reported as `null`.
 
 use crate::EvalError;
-use crate::image_metrics::psnr_from_mse;
+use crate::colour_fit::ColourFit;
 use crate::rendered_views::{map_path, read_views};
 use crate::surface_distance::median;
 use rayon::prelude::*;
@@ -113,12 +113,8 @@ pub struct MaterialEvaluation {
 #[derive(Clone, Debug, Default)]
 struct Sums {
     pixels: usize,
-    /// Σ (p − g)² per channel, Σ p g, Σ p², Σ g² (base colour).
-    sq_err: [f64; 3],
-    pg: [f64; 3],
-    pp: [f64; 3],
-    gg: [f64; 3],
-    base_pixels: usize,
+    /// Base colour against the truth.
+    base: ColourFit,
     roughness_abs: f64,
     roughness_pixels: usize,
     metallic_abs: f64,
@@ -132,13 +128,7 @@ struct Sums {
 impl Sums {
     fn merge(mut self, o: Sums) -> Sums {
         self.pixels += o.pixels;
-        for c in 0..3 {
-            self.sq_err[c] += o.sq_err[c];
-            self.pg[c] += o.pg[c];
-            self.pp[c] += o.pp[c];
-            self.gg[c] += o.gg[c];
-        }
-        self.base_pixels += o.base_pixels;
+        self.base = self.base.merge(o.base);
         self.roughness_abs += o.roughness_abs;
         self.roughness_pixels += o.roughness_pixels;
         self.metallic_abs += o.metallic_abs;
@@ -215,14 +205,8 @@ fn view_sums(pred_dir: &Path, split_dir: &Path, index: usize) -> Result<Sums, Ev
 
     if let Some((p, g)) = pair("base_color")? {
         for i in pixels() {
-            for c in 0..3 {
-                let (pv, gv) = (p.data[3 * i + c] as f64, g.data[3 * i + c] as f64);
-                sums.sq_err[c] += (pv - gv).powi(2);
-                sums.pg[c] += pv * gv;
-                sums.pp[c] += pv * pv;
-                sums.gg[c] += gv * gv;
-            }
-            sums.base_pixels += 1;
+            let rgb = |img: &RgbImage| [0, 1, 2].map(|c| img.data[3 * i + c] as f64);
+            sums.base.add(rgb(&p), rgb(&g));
         }
     }
     if let Some((p, g)) = pair("roughness")? {
@@ -329,32 +313,13 @@ fn summarize(split: Split, views: usize, mut s: Sums) -> MaterialEvaluation {
             .collect()
     });
     let ratio = |num: f64, den: usize| (den > 0).then(|| num / den as f64);
-    let base = (s.base_pixels > 0).then_some(());
-    let scale = base.map(|_| {
-        // Least squares: argmin_s Σ (s p − g)² = Σ p g / Σ p².
-        [0, 1, 2].map(|c| {
-            if s.pp[c] > 0.0 {
-                s.pg[c] / s.pp[c]
-            } else {
-                1.0
-            }
-        })
-    });
-    let raw_mse = base.map(|_| s.sq_err.iter().sum::<f64>() / (3 * s.base_pixels) as f64);
-    let aligned_mse = scale.map(|k| {
-        // Σ (k p − g)² = k² Σp² − 2k Σpg + Σg², per channel.
-        (0..3)
-            .map(|c| (k[c] * k[c] * s.pp[c] - 2.0 * k[c] * s.pg[c] + s.gg[c]).max(0.0))
-            .sum::<f64>()
-            / (3 * s.base_pixels) as f64
-    });
     MaterialEvaluation {
         split,
         views,
         pixels: s.pixels,
-        base_color_psnr: raw_mse.map(|m| psnr_from_mse(m, 1.0)),
-        base_color_psnr_aligned: aligned_mse.map(|m| psnr_from_mse(m, 1.0)),
-        base_color_scale: scale,
+        base_color_psnr: s.base.psnr(),
+        base_color_psnr_aligned: s.base.psnr_aligned(),
+        base_color_scale: s.base.scale(),
         roughness_mae: ratio(s.roughness_abs, s.roughness_pixels),
         metallic_mae: ratio(s.metallic_abs, s.metallic_pixels),
         normal_error_deg: ratio(s.angles_deg.iter().sum(), normal_pixels),
