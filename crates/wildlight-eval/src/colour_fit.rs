@@ -1,5 +1,6 @@
 //! Base colour against the truth, up to the flash gain: the running sums
-//! behind `base_color_psnr` and `base_color_psnr_aligned` (SPEC §7).
+//! behind `base_color_psnr` and `base_color_psnr_aligned` of `wildlight eval
+//! materials` ([`crate::material_eval`]).
 //!
 //! The flash power is learned only up to a gain, which multiplies the
 //! recovered base colour, so besides the plain PSNR the comparison scales
