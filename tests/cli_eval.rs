@@ -84,6 +84,22 @@ fn mesh_errors_name_the_file() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("/no/such/capture"));
 }
 
+/// `eval vertex-materials` needs a run folder; given another, it says so.
+/// (Its success on a trained run is `tests/cli_train_foreign.rs`; missing
+/// truth files are the library's tests.)
+#[test]
+fn vertex_materials_errors_name_the_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    let out = eval(&["vertex-materials", "--run", d, "--gt", d]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(d) && err.contains("is not a wildlight run folder"),
+        "{err}"
+    );
+}
+
 fn constant(w: u32, h: u32, value: [f32; 3]) -> RgbImage {
     RgbImage {
         width: w,

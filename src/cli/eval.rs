@@ -9,7 +9,7 @@ use wildlight_data::Dataset;
 use wildlight_eval::cameras::{Frame, viewpoints};
 use wildlight_eval::{
     ImageEvaluation, MaterialEvaluation, MeshEvaluation, Split, SurfaceDistanceOptions,
-    evaluate_images, evaluate_materials, evaluate_meshes,
+    VertexTruth, evaluate_images, evaluate_materials, evaluate_meshes, evaluate_vertex_materials,
 };
 use wildlight_mesh::TriMesh;
 
@@ -28,6 +28,9 @@ enum Which {
     Images(ImagesArgs),
     /// Material-map errors against a synthetic capture's ground truth.
     Materials(MaterialsArgs),
+    /// A trained run's materials at the vertices of a capture's true mesh,
+    /// against truth given per vertex (gt_albedo_vertex.npy, meta.json).
+    VertexMaterials(VertexMaterialsArgs),
 }
 
 /// The frame of the meshes given to `eval mesh`.
@@ -104,12 +107,29 @@ struct MaterialsArgs {
     json: bool,
 }
 
+/// Options of `wildlight eval vertex-materials`.
+#[derive(clap::Args, Debug)]
+struct VertexMaterialsArgs {
+    /// The run folder written by `wildlight train`.
+    #[arg(long, value_name = "DIR")]
+    run: PathBuf,
+    /// The capture folder: cameras, gt_mesh_normalized.ply,
+    /// gt_albedo_vertex.npy (linear RGB per vertex) and meta.json
+    /// (material.roughness, material.metallic).
+    #[arg(long, value_name = "DATASET_DIR")]
+    gt: PathBuf,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
 /// Runs `wildlight eval`.
 pub fn run(args: Args) -> anyhow::Result<()> {
     match args.which {
         Which::Mesh(a) => run_mesh(a),
         Which::Images(a) => run_images(a),
         Which::Materials(a) => run_materials(a),
+        Which::VertexMaterials(a) => run_vertex_materials(a),
     }
 }
 
@@ -253,4 +273,40 @@ fn materials_table(r: &MaterialEvaluation) -> String {
         s += &format!("  normals within            {}\n", shares.join(", "));
     }
     s
+}
+
+fn run_vertex_materials(args: VertexMaterialsArgs) -> anyhow::Result<()> {
+    let trained = wildlight_train::inference::TrainedRun::load(&args.run)?;
+    let truth = VertexTruth::read(&args.gt)?;
+    let cameras = Dataset::load_cameras(&args.gt)
+        .with_context(|| format!("cannot read the cameras of {}", args.gt.display()))?;
+    let e =
+        evaluate_vertex_materials(&truth, &viewpoints(&cameras, Frame::Normalized), |points| {
+            trained.model.material_at(points)
+        })?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&e)?);
+        return Ok(());
+    }
+    let k = e.base_color_scale;
+    print!(
+        "vertices      {} of {} (those the cameras see)\n\
+         base colour   {:.2} dB, aligned {:.2} dB (scale {:.3} {:.3} {:.3})\n\
+         roughness     mean {:.3} for {:.3}, mean error {:.3}\n\
+         metallic      mean {:.3} for {:.3}, mean error {:.3}\n",
+        e.vertices,
+        e.vertices_total,
+        e.base_color_psnr,
+        e.base_color_psnr_aligned,
+        k[0],
+        k[1],
+        k[2],
+        e.roughness_mean,
+        e.roughness_true,
+        e.roughness_mae,
+        e.metallic_mean,
+        e.metallic_true,
+        e.metallic_mae,
+    );
+    Ok(())
 }

@@ -7,7 +7,9 @@
 //! - Images: PSNR and SSIM over masks ([`image_metrics`]) of rendered views
 //!   against a capture, by flash / no-flash / all views ([`image_eval`]).
 //! - Materials: base colour, roughness, metallic and normal errors against
-//!   a synthetic capture's ground-truth maps ([`material_eval`]).
+//!   a synthetic capture's ground-truth maps ([`material_eval`]), or against
+//!   truth given per vertex of the true mesh ([`vertex_materials`]); the
+//!   base colour's alignment up to the flash gain is [`colour_fit`].
 //! - Synthetic meshes for tests and benchmarks ([`shapes`]).
 
 pub mod cameras;
@@ -21,6 +23,7 @@ pub mod rendered_views;
 pub mod shapes;
 pub mod surface_distance;
 pub mod surface_sampler;
+pub mod vertex_materials;
 pub mod visibility;
 
 pub use colour_fit::ColourFit;
@@ -31,4 +34,5 @@ pub use material_eval::{
 };
 pub use mesh_eval::{MeshEvaluation, evaluate_meshes};
 pub use surface_distance::{SurfaceDistance, SurfaceDistanceOptions, surface_distance};
+pub use vertex_materials::{VertexMaterialEvaluation, VertexTruth, evaluate_vertex_materials};
 pub use visibility::{Frustum, Viewpoint, restrict_to_visible, visible_triangles};

@@ -3,7 +3,6 @@
 //! (`OUT/<kind>/NNN.exr` + `OUT/views.json`).
 
 use crate::config::TrainConfig;
-use crate::material_field::MaterialContext;
 use crate::model::Model;
 use crate::pipeline::{Pipeline, eval_sdf};
 use crate::render_view::render_view;
@@ -170,11 +169,7 @@ impl wildlight_export::FieldSource for ExportSource<'_> {
     }
 
     fn material(&self, points: &[[f32; 3]], out: &mut [[f32; 9]]) {
-        let mut ctx = MaterialContext::new();
-        self.model.material.forward(points, &mut ctx);
-        for (o, row) in out.iter_mut().zip(ctx.output().chunks_exact(9)) {
-            o.copy_from_slice(row);
-        }
+        out.copy_from_slice(&self.model.material_at(points));
     }
 
     fn gradient(&self, points: &[[f32; 3]], out: &mut [[f32; 3]]) {

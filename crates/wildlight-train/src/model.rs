@@ -5,7 +5,7 @@
 use crate::ambient::{SPECULAR_EXTRA_INPUTS, ambient_extra_inputs};
 use crate::config::{AmbientModel, FieldSize, ModelConfig, ROOM_FEATURES};
 use crate::float::{Float, finite};
-use crate::material_field::{MaterialField, MaterialGrads};
+use crate::material_field::{MaterialContext, MaterialField, MaterialGrads};
 use wildlight_fields::{Activation, FieldGrads, NeuralField, NeuralFieldConfig, SdfField};
 use wildlight_material::{METALLIC, PARAM_COUNT};
 
@@ -211,6 +211,19 @@ impl<T: Float> Model<T> {
     /// The flash gain γ = exp(g).
     pub fn gamma(&self) -> T {
         wildlight_render::gain(self.log_gain)
+    }
+
+    /// The material parameters Θ at each of `points` (normalized frame).
+    pub fn material_at(&self, points: &[[T; 3]]) -> Vec<[T; PARAM_COUNT]>
+    where
+        T: Default,
+    {
+        let mut ctx = MaterialContext::new();
+        self.material.forward(points, &mut ctx);
+        ctx.output()
+            .chunks_exact(PARAM_COUNT)
+            .map(|row| row.try_into().expect("PARAM_COUNT parameters"))
+            .collect()
     }
 
     /// Sets how many hash levels of every field are active (coarse-to-fine).
