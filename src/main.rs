@@ -77,8 +77,66 @@ fn main() -> std::process::ExitCode {
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {err:#}");
+            eprintln!("error: {}", error_message(&err));
             std::process::ExitCode::FAILURE
         }
+    }
+}
+
+/// An error and its causes on one line, outermost first ("context: cause:
+/// its cause"), as anyhow's `{:#}` writes them, except that a cause whose
+/// text the line already holds is left out: errors that name their file
+/// and reason in their own message also keep the reason as their source
+/// (`{path}: {source}`), which `{:#}` would print twice.
+fn error_message(err: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in err.chain() {
+        let text = cause.to_string();
+        if line.is_empty() {
+            line = text;
+        } else if !line.contains(&text) {
+            line.push_str(": ");
+            line.push_str(&text);
+        }
+    }
+    line
+}
+
+#[cfg(test)]
+mod tests {
+    use super::error_message;
+
+    /// An error that names its file and reason and keeps the reason as its
+    /// source, as the crates' I/O errors do.
+    #[derive(Debug)]
+    struct Named {
+        source: std::io::Error,
+    }
+
+    impl std::fmt::Display for Named {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            write!(f, "mesh.ply: {}", self.source)
+        }
+    }
+
+    impl std::error::Error for Named {
+        fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+            Some(&self.source)
+        }
+    }
+
+    #[test]
+    fn a_cause_already_in_the_message_is_printed_once() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "no such file");
+        let err = anyhow::Error::new(Named { source: io }).context("cannot load the capture");
+        assert_eq!(
+            error_message(&err),
+            "cannot load the capture: mesh.ply: no such file"
+        );
+        // causes that add something are all kept, outermost first
+        let err = anyhow::anyhow!("bad value")
+            .context("reading x.toml")
+            .context("train");
+        assert_eq!(error_message(&err), "train: reading x.toml: bad value");
     }
 }
