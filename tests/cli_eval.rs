@@ -21,14 +21,11 @@ fn eval(args: &[&str]) -> Output {
     common::wildlight().arg("eval").args(args).output().unwrap()
 }
 
+/// `wildlight eval` with `args`, which must succeed; its JSON output.
 fn json(args: &[&str]) -> serde_json::Value {
-    let out = eval(args);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("stdout is one JSON object")
+    let mut all = vec!["eval"];
+    all.extend_from_slice(args);
+    common::run_json(&all)
 }
 
 #[test]

@@ -4,25 +4,17 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Output;
 
-fn torus() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/wildlight-data/tests/fixtures/mitsuba-torus")
-}
+use common::mitsuba_torus as torus;
 
 fn info(args: &[&str]) -> Output {
     common::wildlight().arg("info").args(args).output().unwrap()
 }
 
 fn json_of(dir: &Path) -> serde_json::Value {
-    let out = info(&["--data", dir.to_str().unwrap(), "--json"]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("stdout is one JSON object")
+    common::run_json(&["info", "--data", dir.to_str().unwrap(), "--json"])
 }
 
 fn vec3(v: &serde_json::Value) -> [f64; 3] {

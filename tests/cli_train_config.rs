@@ -5,19 +5,13 @@
 
 mod common;
 
-use common::{path_arg, run};
+use common::{path_arg, run, run_ok};
 
 /// `train --print-config` with `args`, which must succeed; its stdout.
 fn printed(args: &[&str]) -> String {
     let mut all = vec!["train", "--print-config"];
     all.extend_from_slice(args);
-    let out = run(&all);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).expect("UTF-8 TOML")
+    run_ok(&all)
 }
 
 /// The value of `key` in `[table]` of a printed configuration (the line's

@@ -11,45 +11,26 @@
 
 mod common;
 
-use common::{path_arg, run};
-use std::path::{Path, PathBuf};
-
-fn fixture() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/wildlight-data/tests/fixtures/mitsuba-torus")
-}
-
-/// Runs `wildlight` with `args`, expects success, returns stdout.
-fn ok(args: &[&str]) -> String {
-    let out = run(args);
-    assert!(
-        out.status.success(),
-        "{args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-fn json(text: &str) -> serde_json::Value {
-    serde_json::from_str(text).expect("one JSON object on stdout")
-}
+use common::{mitsuba_torus, path_arg, run_json, run_ok};
+use std::path::Path;
 
 #[test]
 fn the_defaults_reconstruct_a_capture_from_another_renderer() {
     let dir = tempfile::tempdir().unwrap();
-    let capture = fixture();
+    let capture = mitsuba_torus();
     let (cap, d) = (path_arg(&capture), dir.path());
     let (run_dir, renders, asset) = (d.join("run"), d.join("render-val"), d.join("asset"));
     let (run_dir, renders, asset) = (path_arg(&run_dir), path_arg(&renders), path_arg(&asset));
 
     // Measured on the build of session 34 (2 threads): 300 steps in about
     // 90 s, mesh distance 0.0056, held-out views 23.6 / 22.2 dB.
-    ok(&[
+    run_ok(&[
         "train", "--data", cap, "--out", run_dir, "--iters", "300", "--seed", "0", "--quiet",
     ]);
-    ok(&[
+    run_ok(&[
         "render", "--run", run_dir, "--data", cap, "--split", "val", "--out", renders, "--quiet",
     ]);
-    ok(&[
+    run_ok(&[
         "export",
         "--run",
         run_dir,
@@ -69,7 +50,7 @@ fn the_defaults_reconstruct_a_capture_from_another_renderer() {
     // torus's tube radius is 0.21 there; the marching-cubes cell 0.016).
     let gt = capture.join("gt_mesh_normalized.ply");
     let raw = Path::new(asset).join("mesh_raw.ply");
-    let mesh = json(&ok(&[
+    let mesh = run_json(&[
         "eval",
         "mesh",
         "--pred",
@@ -81,16 +62,14 @@ fn the_defaults_reconstruct_a_capture_from_another_renderer() {
         "--frame",
         "normalized",
         "--json",
-    ]));
+    ]);
     let mean = mesh["mean"].as_f64().unwrap();
     assert!(mean < 0.01, "mesh distance {mean}: {mesh}");
     let ratio = mesh["area_pred"].as_f64().unwrap() / mesh["area_gt"].as_f64().unwrap();
     assert!((ratio - 1.0).abs() < 0.05, "area ratio {ratio}: {mesh}");
 
     // The two held-out views, one with the flash and one without.
-    let images = json(&ok(&[
-        "eval", "images", "--pred", renders, "--gt", cap, "--json",
-    ]));
+    let images = run_json(&["eval", "images", "--pred", renders, "--gt", cap, "--json"]);
     for key in ["psnr_flash", "psnr_noflash"] {
         let psnr = images[key].as_f64().unwrap();
         assert!(psnr > 20.0, "{key} {psnr} dB: {images}");
@@ -102,7 +81,7 @@ fn the_defaults_reconstruct_a_capture_from_another_renderer() {
     // per-vertex base colour and the object's roughness 0.4 and metallic 0
     // (measured: 27.26 dB aligned, roughness 0.52, metallic 0.046; Mitsuba
     // shadows with G², so a rougher fit is expected).
-    let materials = json(&ok(&[
+    let materials = run_json(&[
         "eval",
         "vertex-materials",
         "--run",
@@ -110,7 +89,7 @@ fn the_defaults_reconstruct_a_capture_from_another_renderer() {
         "--gt",
         cap,
         "--json",
-    ]));
+    ]);
     let value = |key: &str| materials[key].as_f64().unwrap();
     assert!(value("vertices") > 7000.0, "{materials}");
     assert!(value("base_color_psnr_aligned") > 24.0, "{materials}");

@@ -20,6 +20,29 @@ pub fn run(args: &[&str]) -> Output {
         .expect("the wildlight binary runs")
 }
 
+/// Runs `wildlight` with `args`, which must succeed (a failure shows the
+/// command and its stderr); returns its stdout.
+pub fn run_ok(args: &[&str]) -> String {
+    let out = run(args);
+    assert!(
+        out.status.success(),
+        "{args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).expect("stdout is UTF-8")
+}
+
+/// [`run_ok`], its stdout read as one JSON object.
+pub fn run_json(args: &[&str]) -> serde_json::Value {
+    serde_json::from_str(&run_ok(args)).expect("stdout is one JSON object")
+}
+
+/// The Mitsuba 3 torus capture (`crates/wildlight-data/tests/fixtures`, its
+/// README): a capture that wildlight did not write.
+pub fn mitsuba_torus() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/wildlight-data/tests/fixtures/mitsuba-torus")
+}
+
 /// `p` as a command-line argument (temporary and fixture paths are UTF-8).
 pub fn path_arg(p: &Path) -> &str {
     p.to_str().expect("test paths are UTF-8")
