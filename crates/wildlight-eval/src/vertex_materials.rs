@@ -46,44 +46,40 @@ pub struct VertexTruth {
 impl VertexTruth {
     /// Reads the truth of a capture folder (see the module documentation).
     pub fn read(capture: &Path) -> Result<Self, EvalError> {
-        let mesh = TriMesh::read(capture.join(MESH_FILE))?;
-        let path = capture.join(ALBEDO_FILE);
-        let bad = |problem: String| EvalError::Input {
-            path: path.clone(),
+        let input = |path: &Path, problem: String| EvalError::Input {
+            path: path.to_path_buf(),
             problem,
         };
-        let file = std::fs::File::open(&path).map_err(|e| bad(format!("cannot open: {e}")))?;
+        let mesh = TriMesh::read(capture.join(MESH_FILE))?;
+        let path = capture.join(ALBEDO_FILE);
+        let file =
+            std::fs::File::open(&path).map_err(|e| input(&path, format!("cannot open: {e}")))?;
         let array = Array2::<f32>::read_npy(file)
-            .map_err(|e| bad(format!("not an n × 3 float32 array: {e}")))?;
+            .map_err(|e| input(&path, format!("not an n × 3 float32 array: {e}")))?;
         if array.dim() != (mesh.positions.len(), 3) {
-            return Err(bad(format!(
-                "{:?} values for the {} vertices of {MESH_FILE}",
-                array.dim(),
-                mesh.positions.len()
-            )));
+            return Err(input(
+                &path,
+                format!(
+                    "{:?} values for the {} vertices of {MESH_FILE}",
+                    array.dim(),
+                    mesh.positions.len()
+                ),
+            ));
         }
         let albedo = array
             .rows()
             .into_iter()
             .map(|r| [r[0], r[1], r[2]])
             .collect();
-        let meta_path = capture.join(META_FILE);
-        let text = std::fs::read_to_string(&meta_path).map_err(|e| EvalError::Input {
-            path: meta_path.clone(),
-            problem: format!("cannot read: {e}"),
-        })?;
+        let path = capture.join(META_FILE);
+        let text = std::fs::read_to_string(&path)
+            .map_err(|e| input(&path, format!("cannot read: {e}")))?;
         let meta: serde_json::Value =
-            serde_json::from_str(&text).map_err(|e| EvalError::Input {
-                path: meta_path.clone(),
-                problem: format!("not JSON: {e}"),
-            })?;
+            serde_json::from_str(&text).map_err(|e| input(&path, format!("not JSON: {e}")))?;
         let value = |key: &str| {
             meta["material"][key]
                 .as_f64()
-                .ok_or_else(|| EvalError::Input {
-                    path: meta_path.clone(),
-                    problem: format!("no number material.{key}"),
-                })
+                .ok_or_else(|| input(&path, format!("no number material.{key}")))
         };
         Ok(Self {
             mesh,
