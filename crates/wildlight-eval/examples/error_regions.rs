@@ -22,6 +22,10 @@
 //! and of the capture's `val/gt`; and it gives the share of each one's
 //! squared error held by the 1 % of pixels where it is largest.
 //!
+//! A third table splits the flash term's error (the second row above) by
+//! how far the rendering's normal is from the capture's at the pixel:
+//! within 0.5°, 0.5–2°, 2–8° and beyond 8° ([`ANGLE_BINS`]).
+//!
 //! With a third argument, writes a PNG of one held-out view (the first, or
 //! the view index given as a fourth argument): the photo, the rendering
 //! (both clipped at 1) and each mask pixel's RMS error (×4) in red
@@ -57,6 +61,11 @@ const TERM_ROWS: [&str; 3] = [
     "model ambient + true flash",
 ];
 
+/// Upper edges (degrees) of the normal-error bins of the third table; the
+/// last bin is open.
+const ANGLE_BINS: [f32; 3] = [0.5, 2.0, 8.0];
+const ANGLE_NAMES: [&str; 4] = ["< 0.5°", "0.5–2°", "2–8°", "> 8°"];
+
 /// Squared error and pixel count of each region, flash and no flash.
 #[derive(Default)]
 struct Tally {
@@ -64,6 +73,8 @@ struct Tally {
     pixels: [[usize; 4]; 2],
     /// Per flash-view mask pixel, its squared error in each [`TERM_ROWS`] way.
     terms: [Vec<f64>; 3],
+    /// The flash term's squared error and pixel count per normal-error bin.
+    by_angle: [(f64, usize); 4],
 }
 
 fn read(dir: &Path, kind: &str, index: usize) -> Result<RgbImage> {
@@ -133,6 +144,7 @@ fn add_terms(
     let gt = val.join("gt");
     let (model_ambient, model_flash) = (read(render, "ambient", i)?, read(render, "flash", i)?);
     let (true_ambient, true_flash) = (read(&gt, "ambient", i)?, read(&gt, "flash", i)?);
+    let (model_normal, true_normal) = (read(render, "normal", i)?, read(&gt, "normal", i)?);
     ensure_mask_size(
         i,
         mask,
@@ -141,6 +153,7 @@ fn add_terms(
             ("model's flash map", &model_flash),
             ("true ambient map", &true_ambient),
             ("true flash map", &true_flash),
+            ("model's normal map", &model_normal),
         ],
     )?;
     let swapped = [(&true_ambient, &model_flash), (&model_ambient, &true_flash)];
@@ -149,6 +162,14 @@ fn add_terms(
             let sq = pixel_sq(photo, j, |k| ambient.data[k] + flash.data[k]);
             tally.terms[row + 1].push(sq);
         }
+        let unit =
+            |im: &RgbImage| glam::Vec3::from_slice(&im.data[3 * j..3 * j + 3]).normalize_or_zero();
+        let cos = unit(&model_normal).dot(unit(&true_normal)).clamp(-1.0, 1.0);
+        let degrees = cos.acos().to_degrees();
+        let bin = ANGLE_BINS.iter().filter(|&&edge| degrees >= edge).count();
+        let flash_sq = tally.terms[1].last().copied().unwrap_or(0.0);
+        tally.by_angle[bin].0 += flash_sq;
+        tally.by_angle[bin].1 += 1;
     }
     Ok(())
 }
@@ -281,6 +302,22 @@ fn main() -> Result<()> {
                 name,
                 psnr(sq.iter().sum(), 3 * sq.len()),
                 100.0 * top_percent_share(sq),
+            );
+        }
+        println!();
+        println!(
+            "{:>28} {:>8} {:>8} {:>9}",
+            "flash term, normal off by", "pixels%", "error%", "PSNR dB"
+        );
+        let px_all: usize = tally.by_angle.iter().map(|b| b.1).sum();
+        let sq_all: f64 = tally.by_angle.iter().map(|b| b.0).sum();
+        for (name, (sq, px)) in ANGLE_NAMES.iter().zip(tally.by_angle) {
+            println!(
+                "{:>28} {:>8.1} {:>8.1} {:>9.2}",
+                name,
+                100.0 * px as f64 / px_all.max(1) as f64,
+                100.0 * sq / sq_all.max(f64::MIN_POSITIVE),
+                psnr(sq, 3 * px),
             );
         }
     }
