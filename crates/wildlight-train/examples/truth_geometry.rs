@@ -42,7 +42,9 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use rayon::prelude::*;
 use std::path::Path;
-use wildlight_fields::{Adam, AdamConfig, FdScheme, FieldContext, NormalContext, SdfField};
+use wildlight_fields::{
+    Adam, AdamConfig, FdScheme, FieldContext, FieldGrads, NeuralField, NormalContext, SdfField,
+};
 use wildlight_material::{PARAM_COUNT, PARAM_NAMES};
 use wildlight_synth::scenes::BuiltinScene;
 use wildlight_train::config::TrainConfig;
@@ -140,15 +142,45 @@ fn fitting_points(scene: BuiltinScene) -> Vec<([f32; 3], f32)> {
         .collect()
 }
 
+/// Adam on a field's grid (learning rate 0.01) and network (0.001) with a
+/// cosine decay to 5 % over the fit.
+struct Fitter {
+    adam: Adam<f32>,
+    grid: usize,
+    mlp: usize,
+}
+
+impl Fitter {
+    fn new(field: &NeuralField<f32>) -> Fitter {
+        let mut adam = Adam::<f32>::new();
+        let lr = |lr: f64| AdamConfig {
+            lr,
+            ..Default::default()
+        };
+        let grid = adam.add_group("grid", field.grid.params.len(), lr(0.01));
+        let mlp = adam.add_group("mlp", field.mlp.params.len(), lr(0.001));
+        Fitter { adam, grid, mlp }
+    }
+
+    fn step(
+        &mut self,
+        field: &mut NeuralField<f32>,
+        grads: &FieldGrads<f32>,
+        step: usize,
+        steps: usize,
+    ) {
+        let cosine = 0.5 * (1.0 + (std::f64::consts::PI * step as f64 / steps as f64).cos());
+        let factor = 0.05 + 0.95 * cosine;
+        self.adam
+            .step(self.grid, &mut field.grid.params, &grads.grid, factor);
+        self.adam
+            .step(self.mlp, &mut field.mlp.params, &grads.mlp, factor);
+    }
+}
+
 /// Regresses the SDF's distance output on the pool's true distances.
 fn fit(sdf: &mut SdfField<f32>, pool: &[([f32; 3], f32)], steps: usize) {
-    let mut adam = Adam::<f32>::new();
-    let lr = |lr: f64| AdamConfig {
-        lr,
-        ..Default::default()
-    };
-    let grid = adam.add_group("grid", sdf.field.grid.params.len(), lr(0.01));
-    let mlp = adam.add_group("mlp", sdf.field.mlp.params.len(), lr(0.001));
+    let mut fitter = Fitter::new(&sdf.field);
     let mut grads = sdf.new_grads();
     let mut ctx = FieldContext::new();
     let stride = sdf.n_output();
@@ -168,10 +200,7 @@ fn fit(sdf: &mut SdfField<f32>, pool: &[([f32; 3], f32)], steps: usize) {
         }
         grads.zero();
         sdf.backward(&mut ctx, &d_out, &mut grads, None);
-        let cosine = 0.5 * (1.0 + (std::f64::consts::PI * step as f64 / steps as f64).cos());
-        let factor = 0.05 + 0.95 * cosine;
-        adam.step(grid, &mut sdf.field.grid.params, &grads.grid, factor);
-        adam.step(mlp, &mut sdf.field.mlp.params, &grads.mlp, factor);
+        fitter.step(&mut sdf.field, &grads, step, steps);
         if step % 500 == 0 || step + 1 == steps {
             println!(
                 "fit step {step}: rms error {:.5}",
@@ -197,13 +226,7 @@ fn fit_material(
             (p, truth.to_array::<f32>().map(|v| v.clamp(0.01, 0.99)))
         })
         .collect();
-    let mut adam = Adam::<f32>::new();
-    let lr = |lr: f64| AdamConfig {
-        lr,
-        ..Default::default()
-    };
-    let grid = adam.add_group("grid", material.params.grid.params.len(), lr(0.01));
-    let mlp = adam.add_group("mlp", material.params.mlp.params.len(), lr(0.001));
+    let mut fitter = Fitter::new(&material.params);
     let mut grads = material.new_grads();
     let mut ctx = MaterialContext::new();
     let mut rng = Pcg64::seed_from_u64(6);
@@ -225,20 +248,7 @@ fn fit_material(
         }
         grads.zero();
         material.backward(&mut ctx, &d_theta, &mut grads);
-        let cosine = 0.5 * (1.0 + (std::f64::consts::PI * step as f64 / steps as f64).cos());
-        let factor = 0.05 + 0.95 * cosine;
-        adam.step(
-            grid,
-            &mut material.params.grid.params,
-            &grads.params.grid,
-            factor,
-        );
-        adam.step(
-            mlp,
-            &mut material.params.mlp.params,
-            &grads.params.mlp,
-            factor,
-        );
+        fitter.step(&mut material.params, &grads.params, step, steps);
     }
     let names = PARAM_NAMES.iter().zip(abs);
     let listed: Vec<String> = names.map(|(n, e)| format!("{n} {e:.4}")).collect();
