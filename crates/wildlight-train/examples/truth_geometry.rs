@@ -1,6 +1,6 @@
 //! A geometry (and material) oracle for experiments on synthetic captures:
-//! a new run folder whose SDF is fitted to the built-in scene's true signed distance before
-//! step 0, so that `wildlight train --out RUN --resume --iters ITERS` (or
+//! a new run folder whose SDF is fitted to the built-in scene's true signed
+//! distance before step 0, so that `wildlight train --out RUN --resume --iters ITERS` (or
 //! `--time-budget`) trains the rest of the model (materials, ambient light,
 //! the NeuS sharpness and the flash gain) on top of the right shape. With
 //! the SDF's learning rates at zero (`optim.grid_lr_factors.sdf = 0`,
@@ -91,6 +91,11 @@ fn main() -> Result<()> {
     let (dataset, _) = load_capture(capture)?;
     let mut trainer = Trainer::new(config.clone(), TrainingRays::new(&dataset))?;
 
+    if fit_materials && trainer.model.material.metallic.is_some() {
+        bail!(
+            "MATERIALS = 1 fits one material network; this configuration has a metallic field of its own"
+        );
+    }
     let pool = fitting_points(scene);
     let sdf = &mut trainer.model.sdf;
     let active = sdf.field.active_levels;
@@ -99,11 +104,6 @@ fn main() -> Result<()> {
     report(sdf, scene, &pool);
     sdf.field.active_levels = active;
     if fit_materials {
-        if trainer.model.material.metallic.is_some() {
-            bail!(
-                "MATERIALS = 1 fits one material network; this configuration has a metallic field of its own"
-            );
-        }
         let material = &mut trainer.model.material;
         let levels = material.params.active_levels;
         material.set_active_levels(usize::MAX);
@@ -211,7 +211,8 @@ fn fit(sdf: &mut SdfField<f32>, pool: &[([f32; 3], f32)], steps: usize) {
 }
 
 /// Regresses Θ on the scene's true material at the pool's points near the
-/// surface, and prints the fit's mean absolute error per parameter.
+/// surface, and prints the mean absolute error per parameter over the last
+/// step's points.
 fn fit_material(
     material: &mut MaterialField<f32>,
     scene: BuiltinScene,
