@@ -132,7 +132,9 @@ fn pixel_sq(photo: &RgbImage, j: usize, value: impl Fn(usize) -> f32) -> f64 {
 
 /// Adds flash view `i`'s squared error per mask pixel with the true
 /// ambient term and with the true flash term (the last two
-/// [`TERM_ROWS`]) to the tally; the caller adds the first, as rendered.
+/// [`TERM_ROWS`]) to the tally, and the flash term's error by normal-error
+/// bin against `true_normal` (the capture's normal map, which the caller
+/// has read); the caller adds the first row, as rendered.
 fn add_terms(
     tally: &mut Tally,
     render: &Path,
@@ -140,11 +142,12 @@ fn add_terms(
     i: usize,
     photo: &RgbImage,
     mask: &Mask,
+    true_normal: &RgbImage,
 ) -> Result<()> {
     let gt = val.join("gt");
     let (model_ambient, model_flash) = (read(render, "ambient", i)?, read(render, "flash", i)?);
     let (true_ambient, true_flash) = (read(&gt, "ambient", i)?, read(&gt, "flash", i)?);
-    let (model_normal, true_normal) = (read(render, "normal", i)?, read(&gt, "normal", i)?);
+    let model_normal = read(render, "normal", i)?;
     ensure_mask_size(
         i,
         mask,
@@ -158,17 +161,16 @@ fn add_terms(
     )?;
     let swapped = [(&true_ambient, &model_flash), (&model_ambient, &true_flash)];
     for (j, _) in mask.data.iter().enumerate().filter(|(_, on)| **on) {
-        for (row, (ambient, flash)) in swapped.iter().enumerate() {
-            let sq = pixel_sq(photo, j, |k| ambient.data[k] + flash.data[k]);
-            tally.terms[row + 1].push(sq);
-        }
+        let sq =
+            swapped.map(|(ambient, flash)| pixel_sq(photo, j, |k| ambient.data[k] + flash.data[k]));
+        tally.terms[1].push(sq[0]);
+        tally.terms[2].push(sq[1]);
         let unit =
             |im: &RgbImage| glam::Vec3::from_slice(&im.data[3 * j..3 * j + 3]).normalize_or_zero();
-        let cos = unit(&model_normal).dot(unit(&true_normal)).clamp(-1.0, 1.0);
+        let cos = unit(&model_normal).dot(unit(true_normal)).clamp(-1.0, 1.0);
         let degrees = cos.acos().to_degrees();
         let bin = ANGLE_BINS.iter().filter(|&&edge| degrees >= edge).count();
-        let flash_sq = tally.terms[1].last().copied().unwrap_or(0.0);
-        tally.by_angle[bin].0 += flash_sq;
+        tally.by_angle[bin].0 += sq[0];
         tally.by_angle[bin].1 += 1;
     }
     Ok(())
@@ -221,7 +223,7 @@ fn main() -> Result<()> {
             ],
         )?;
         if flash == 1 {
-            add_terms(&mut tally, render, &val, i, &photo, &mask)?;
+            add_terms(&mut tally, render, &val, i, &photo, &mask, &normal)?;
         }
         let w = mask.width;
         let mut picture = RgbImage::new(3 * w, mask.height);
