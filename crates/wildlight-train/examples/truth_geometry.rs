@@ -178,6 +178,16 @@ impl Fitter {
     }
 }
 
+/// A fitting batch: `BATCH` entries of `items` drawn with replacement, as
+/// their indices and their points.
+fn draw<T>(rng: &mut Pcg64, items: &[([f32; 3], T)]) -> (Vec<usize>, Vec<[f32; 3]>) {
+    let idx: Vec<usize> = (0..BATCH)
+        .map(|_| rng.random_range(0..items.len()))
+        .collect();
+    let x = idx.iter().map(|&i| items[i].0).collect();
+    (idx, x)
+}
+
 /// Regresses the SDF's distance output on the pool's true distances.
 fn fit(sdf: &mut SdfField<f32>, pool: &[([f32; 3], f32)], steps: usize) {
     let mut fitter = Fitter::new(&sdf.field);
@@ -186,10 +196,7 @@ fn fit(sdf: &mut SdfField<f32>, pool: &[([f32; 3], f32)], steps: usize) {
     let stride = sdf.n_output();
     let mut rng = Pcg64::seed_from_u64(5);
     for step in 0..steps {
-        let idx: Vec<usize> = (0..BATCH)
-            .map(|_| rng.random_range(0..pool.len()))
-            .collect();
-        let x: Vec<[f32; 3]> = idx.iter().map(|&i| pool[i].0).collect();
+        let (idx, x) = draw(&mut rng, pool);
         sdf.forward(&x, &mut ctx);
         let mut d_out = vec![0.0f32; BATCH * stride];
         let mut sq = 0.0f64;
@@ -233,10 +240,7 @@ fn fit_material(
     let mut rng = Pcg64::seed_from_u64(6);
     let mut abs = [0.0f64; PARAM_COUNT];
     for step in 0..steps {
-        let idx: Vec<usize> = (0..BATCH)
-            .map(|_| rng.random_range(0..points.len()))
-            .collect();
-        let x: Vec<[f32; 3]> = idx.iter().map(|&i| points[i].0).collect();
+        let (idx, x) = draw(&mut rng, &points);
         material.forward(&x, &mut ctx);
         let mut d_theta = vec![0.0f32; BATCH * PARAM_COUNT];
         abs = [0.0; PARAM_COUNT];
