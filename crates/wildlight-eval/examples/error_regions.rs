@@ -24,7 +24,8 @@
 //!
 //! A third table splits the flash term's error (the second row above) by
 //! how far the rendering's normal is from the capture's at the pixel:
-//! within 0.5°, 0.5–2°, 2–8° and beyond 8° ([`ANGLE_BINS`]).
+//! within 0.5°, 0.5–2°, 2–8° and beyond 8° ([`ANGLE_BINS`]). A fourth
+//! splits each of those bins' pixels between the four regions above.
 //!
 //! With a third argument, writes a PNG of one held-out view (the first, or
 //! the view index given as a fourth argument): the photo, the rendering
@@ -75,6 +76,8 @@ struct Tally {
     terms: [Vec<f64>; 3],
     /// The flash term's squared error and pixel count per normal-error bin.
     by_angle: [(f64, usize); 4],
+    /// Pixels of each normal-error bin (rows) in each region (columns).
+    angle_regions: [[usize; 4]; 4],
 }
 
 fn read(dir: &Path, kind: &str, index: usize) -> Result<RgbImage> {
@@ -172,6 +175,9 @@ fn add_terms(
         let bin = ANGLE_BINS.iter().filter(|&&edge| degrees >= edge).count();
         tally.by_angle[bin].0 += sq[0];
         tally.by_angle[bin].1 += 1;
+        let w = mask.width as usize;
+        let (x, y) = ((j % w) as i64, (j / w) as i64);
+        tally.angle_regions[bin][region(mask, photo, true_normal, x, y)] += 1;
     }
     Ok(())
 }
@@ -321,6 +327,20 @@ fn main() -> Result<()> {
                 100.0 * sq / sq_all.max(f64::MIN_POSITIVE),
                 psnr(sq, 3 * px),
             );
+        }
+        println!();
+        print!("{:>28}", "normal off by, % in region");
+        for region in REGIONS {
+            print!(" {region:>10}");
+        }
+        println!();
+        for (name, counts) in ANGLE_NAMES.iter().zip(tally.angle_regions) {
+            print!("{name:>28}");
+            let total = counts.iter().sum::<usize>().max(1) as f64;
+            for c in counts {
+                print!(" {:>10.1}", 100.0 * c as f64 / total);
+            }
+            println!();
         }
     }
     Ok(())
