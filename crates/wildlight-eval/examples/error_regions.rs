@@ -133,20 +133,34 @@ fn pixel_sq(photo: &RgbImage, j: usize, value: impl Fn(usize) -> f32) -> f64 {
         .sum()
 }
 
+/// What the caller has read or worked out for one held-out view.
+struct ViewMaps<'a> {
+    photo: &'a RgbImage,
+    mask: &'a Mask,
+    /// The capture's normal map.
+    true_normal: &'a RgbImage,
+    /// Each pixel's region (index into [`REGIONS`]); `None` outside the mask.
+    regions: &'a [Option<usize>],
+}
+
 /// Adds flash view `i`'s squared error per mask pixel with the true
 /// ambient term and with the true flash term (the last two
 /// [`TERM_ROWS`]) to the tally, and the flash term's error by normal-error
-/// bin against `true_normal` (the capture's normal map, which the caller
-/// has read); the caller adds the first row, as rendered.
+/// bin against the capture's normal map, with each bin's pixels by region;
+/// the caller adds the first row, as rendered.
 fn add_terms(
     tally: &mut Tally,
     render: &Path,
     val: &Path,
     i: usize,
-    photo: &RgbImage,
-    mask: &Mask,
-    true_normal: &RgbImage,
+    view: &ViewMaps,
 ) -> Result<()> {
+    let ViewMaps {
+        photo,
+        mask,
+        true_normal,
+        regions,
+    } = *view;
     let gt = val.join("gt");
     let (model_ambient, model_flash) = (read(render, "ambient", i)?, read(render, "flash", i)?);
     let (true_ambient, true_flash) = (read(&gt, "ambient", i)?, read(&gt, "flash", i)?);
@@ -175,9 +189,7 @@ fn add_terms(
         let bin = ANGLE_BINS.iter().filter(|&&edge| degrees >= edge).count();
         tally.by_angle[bin].0 += sq[0];
         tally.by_angle[bin].1 += 1;
-        let w = mask.width as usize;
-        let (x, y) = ((j % w) as i64, (j / w) as i64);
-        tally.angle_regions[bin][region(mask, photo, true_normal, x, y)] += 1;
+        tally.angle_regions[bin][regions[j].expect("a mask pixel has a region")] += 1;
     }
     Ok(())
 }
@@ -228,10 +240,24 @@ fn main() -> Result<()> {
                 ("normal map", &normal),
             ],
         )?;
-        if flash == 1 {
-            add_terms(&mut tally, render, &val, i, &photo, &mask, &normal)?;
-        }
         let w = mask.width;
+        // Each mask pixel's region, once per view (the tables and the
+        // picture read it).
+        let regions: Vec<Option<usize>> = (0..mask.data.len())
+            .map(|j| {
+                let (x, y) = ((j % w as usize) as i64, (j / w as usize) as i64);
+                mask.data[j].then(|| region(&mask, &photo, &normal, x, y))
+            })
+            .collect();
+        if flash == 1 {
+            let view = ViewMaps {
+                photo: &photo,
+                mask: &mask,
+                true_normal: &normal,
+                regions: &regions,
+            };
+            add_terms(&mut tally, render, &val, i, &view)?;
+        }
         let mut picture = RgbImage::new(3 * w, mask.height);
         for y in 0..mask.height as i64 {
             for x in 0..mask.width as i64 {
@@ -239,10 +265,9 @@ fn main() -> Result<()> {
                 let clipped = |im: &RgbImage| [0, 1, 2].map(|c| im.data[3 * j + c].min(1.0));
                 picture.set(x as u32, y as u32, clipped(&photo));
                 picture.set(w + x as u32, y as u32, clipped(&rendering));
-                if !mask.data[j] {
+                let Some(r) = regions[j] else {
                     continue;
-                }
-                let r = region(&mask, &photo, &normal, x, y);
+                };
                 let sq = pixel_sq(&photo, j, |k| rendering.data[k]);
                 tally.sq[flash][r] += sq;
                 tally.pixels[flash][r] += 1;
