@@ -1,7 +1,8 @@
 //! Triangle meshes for wildlight: the [`TriMesh`] type, PLY and OBJ reading
 //! and writing, and the geometric operations the other crates need (areas,
 //! face normals, bounding boxes, transforms, welding of marching-cubes
-//! soups, removal of small disconnected components).
+//! soups, removal of small disconnected components, the support plane an
+//! object stands on).
 //!
 //! ```no_run
 //! use wildlight_mesh::TriMesh;
@@ -15,8 +16,10 @@ mod components;
 mod error;
 pub mod obj;
 pub mod ply;
+mod support;
 mod trimesh;
 mod weld;
 
 pub use error::MeshError;
+pub use support::{ObjectOnly, SupportPlane, SupportSearch};
 pub use trimesh::{Aabb, TriMesh};
