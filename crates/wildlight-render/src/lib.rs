@@ -7,6 +7,9 @@
 //! - [`mod@composite`]: Σ w_k c_k of any per-sample attribute, forward/backward,
 //!   and per-ray depth/normal/mask maps;
 //! - [`flash`]: the co-located flash term, forward/backward (∂Θ, ∂∇φ, ∂γ);
+//! - [`background`]: the scene beyond the unit sphere (SPEC §6): samples
+//!   uniform in inverse radius, their volume rendering with an ambient and
+//!   a flash term, forward/backward (∂σ, ∂a, ∂ρ, ∂γ);
 //! - [`sh`]: spherical-harmonics encoding of view directions;
 //! - [`occupancy`]: the occupancy grid for empty-space skipping;
 //! - [`sampler`]: the fast sampler (grid + hierarchical refinement) and the
@@ -88,6 +91,7 @@
 
 #![deny(missing_docs)]
 
+pub mod background;
 pub mod composite;
 pub mod error;
 pub mod flash;
@@ -110,6 +114,10 @@ pub(crate) fn test_uniform(mut state: u64) -> impl FnMut() -> f64 {
     }
 }
 
+pub use background::{
+    BackgroundGrads, BackgroundInputs, BackgroundSamples, BackgroundSettings, background_backward,
+    background_forward,
+};
 pub use composite::{
     RayMaps, acc_weight_backward, add_background, add_background_backward, composite,
     composite_backward, ray_maps,
