@@ -105,13 +105,11 @@ fn a_run_folder_with_retired_settings_loads_with_a_warning() {
         r#"{"data": "/nowhere/capture", "version": "0"}"#,
     )
     .unwrap();
-    let out = run(&[
-        "train",
-        "--print-config",
-        "--resume",
-        "--out",
-        path_arg(&run_dir),
-    ]);
+    let print_resumed = || {
+        let out = run_dir.to_str().unwrap();
+        run(&["train", "--print-config", "--resume", "--out", out])
+    };
+    let out = print_resumed();
     assert!(out.status.success(), "{out:?}");
     let (stdout, stderr) = (
         String::from_utf8_lossy(&out.stdout),
@@ -137,13 +135,7 @@ fn a_run_folder_with_retired_settings_loads_with_a_warning() {
         format!("{old}colour_l2 = 1.0\n"),
     )
     .unwrap();
-    let out = run(&[
-        "train",
-        "--print-config",
-        "--resume",
-        "--out",
-        path_arg(&run_dir),
-    ]);
+    let out = print_resumed();
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(

@@ -84,6 +84,21 @@ fn run_setup(
     (dir, data, out, config)
 }
 
+/// The options of a new run of `config` on the capture `data` into `out`,
+/// with no time budget, snapshots or progress bar.
+fn run_options(data: &Path, out: &Path, config: TrainConfig) -> wildlight_train::run::RunOptions {
+    wildlight_train::run::RunOptions {
+        data: Some(data.to_path_buf()),
+        out: out.to_path_buf(),
+        config,
+        time_budget: None,
+        snapshot_every: None,
+        resume: false,
+        resume_iters: None,
+        progress: false,
+    }
+}
+
 /// Mean |φ| of the model at the ground-truth surface vertices: the distance
 /// from the true surface to the learned zero level set (one side of eq. 16,
 /// for a field that is close to a distance function).
@@ -250,22 +265,12 @@ fn the_parameter_average_follows_the_planned_steps() {
 fn a_trained_run_loads_the_parameter_average() {
     use wildlight_fields::Checkpoint;
     use wildlight_train::inference::TrainedRun;
-    use wildlight_train::run::{CHECKPOINT_FILE, RunOptions, train};
+    use wildlight_train::run::{CHECKPOINT_FILE, train};
     use wildlight_train::trainer::{AVERAGE_COUNT, AVERAGE_PREFIX, load_model};
     let (_dir, data, out, mut config) = run_setup(6);
     config.optim.average_from = 0.5;
     config.optim.average_every = 2;
-    train(&RunOptions {
-        data: Some(data),
-        out: out.clone(),
-        config,
-        time_budget: None,
-        snapshot_every: None,
-        resume: false,
-        resume_iters: None,
-        progress: false,
-    })
-    .unwrap();
+    train(&run_options(&data, &out, config)).unwrap();
     let ck = Checkpoint::load(&out.join(CHECKPOINT_FILE)).unwrap();
     // steps 3 and 5 (from ⌈0.5 · 6⌉ = 3, every 2)
     assert_eq!(ck.metadata(AVERAGE_COUNT), Some("2"));
@@ -623,15 +628,9 @@ fn snapshots_keep_the_model_at_marks_of_wall_time() {
     use wildlight_train::run::{CHECKPOINT_FILE, RunOptions, SnapshotInfo, read_run, train};
     let (dir, data, out, config) = run_setup(3);
     let summary = train(&RunOptions {
-        data: Some(data),
-        out: out.clone(),
-        config,
-        time_budget: None,
         // every step takes longer than this: one snapshot per step
         snapshot_every: Some(std::time::Duration::from_micros(1)),
-        resume: false,
-        resume_iters: None,
-        progress: false,
+        ..run_options(&data, &out, config)
     })
     .unwrap();
     assert_eq!(summary.steps, 3);
@@ -677,23 +676,21 @@ fn snapshots_keep_the_model_at_marks_of_wall_time() {
 fn resume_trains_on_to_the_runs_own_step_count() {
     use wildlight_train::run::{RunOptions, train};
     let (_dir, data, out, config) = run_setup(4);
-    let options =
-        |resume: bool, resume_iters: Option<u64>, budget: Option<std::time::Duration>| RunOptions {
-            data: Some(data.clone()),
-            out: out.clone(),
-            // what the command line passes: its defaults (4,000 steps), which
-            // a resumed run ignores
-            config: if resume {
-                TrainConfig::default()
-            } else {
-                config.clone()
-            },
+    let options = |resume: bool, resume_iters: Option<u64>, budget: Option<std::time::Duration>| {
+        // what the command line passes: its defaults (4,000 steps), which
+        // a resumed run ignores
+        let given = if resume {
+            TrainConfig::default()
+        } else {
+            config.clone()
+        };
+        RunOptions {
             time_budget: budget,
-            snapshot_every: None,
             resume,
             resume_iters,
-            progress: false,
-        };
+            ..run_options(&data, &out, given)
+        }
+    };
     // Interrupted by its time budget after the first step or so.
     let first = train(&options(
         false,
@@ -819,18 +816,11 @@ fn with_a_budget_and_fewer_steps_the_steps_end_the_run() {
     use wildlight_train::run::{RunOptions, train};
     let (_dir, data, out, config) = run_setup(3);
     let summary = train(&RunOptions {
-        data: Some(data),
-        out,
-        config,
         time_budget: Some(std::time::Duration::from_secs(3600)),
-        snapshot_every: None,
-        resume: false,
-        resume_iters: None,
-        progress: false,
+        ..run_options(&data, &out, config)
     })
     .unwrap();
     assert_eq!(summary.steps, 3);
-    assert!(summary.seconds < 3600.0);
 }
 
 /// A run that its time budget alone planned trains until the time is up;
@@ -844,14 +834,10 @@ fn a_run_planned_by_its_budget_resumes_to_its_plan() {
     config.iters = planned_iters(None, budget, config.iters);
     assert_eq!(config.iters, BUDGET_MAX_STEPS);
     let options = |resume: bool, resume_iters: Option<u64>| RunOptions {
-        data: Some(data.clone()),
-        out: out.clone(),
-        config: config.clone(),
         time_budget: if resume { None } else { budget },
-        snapshot_every: None,
         resume,
         resume_iters,
-        progress: false,
+        ..run_options(&data, &out, config.clone())
     };
     let first = train(&options(false, None)).unwrap().steps;
     assert!(first < 20, "{first} steps in a millisecond");
