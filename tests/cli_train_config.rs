@@ -88,3 +88,70 @@ fn with_resume_the_runs_own_configuration_is_printed() {
     let kept = printed(&["--resume", "--out", out, "--iters", "5"]);
     assert!(kept.contains("\niters = 9\n"), "{kept}");
 }
+
+/// A run folder written before issue 48 names settings that were retired:
+/// it still loads, with a warning that names them, and they are gone from
+/// the configuration printed; a key that never was a setting still fails.
+#[test]
+fn a_run_folder_with_retired_settings_loads_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let run_dir = dir.path().join("run");
+    std::fs::create_dir(&run_dir).unwrap();
+    let old = "iters = 9\nerror_fraction = 0.0\n\n[loss]\ncolor_l2 = 0.0\n\
+               binary_metallic_start = 0.4\n\n[model]\nambient_sh_bands = 4\n";
+    std::fs::write(run_dir.join("config.toml"), old).unwrap();
+    std::fs::write(
+        run_dir.join("run.json"),
+        r#"{"data": "/nowhere/capture", "version": "0"}"#,
+    )
+    .unwrap();
+    let print_resumed = || {
+        let out = run_dir.to_str().unwrap();
+        run(&["train", "--print-config", "--resume", "--out", out])
+    };
+    let out = print_resumed();
+    assert!(out.status.success(), "{out:?}");
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(
+        stderr.contains(
+            "config.toml: retired settings ignored: error_fraction, loss.color_l2, \
+             model.ambient_sh_bands"
+        ),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("turned on"), "{stderr}");
+    assert!(!stdout.contains("color_l2") && !stdout.contains("ambient_sh_bands"));
+    // the old name of a renamed key is read, and printed under the new one
+    assert_eq!(
+        value_in(&stdout, "loss", "binary_metallic_from"),
+        Some("0.4")
+    );
+
+    std::fs::write(
+        run_dir.join("config.toml"),
+        format!("{old}colour_l2 = 1.0\n"),
+    )
+    .unwrap();
+    let out = print_resumed();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("colour_l2") && err.contains("line 10"),
+        "{err}"
+    );
+}
+
+/// With a time budget and no --iters the budget plans the run (its step
+/// count only bounds it); with both, the steps asked for are the bound.
+#[test]
+fn a_time_budget_without_iters_plans_the_run() {
+    let budget = printed(&["--time-budget", "30m"]);
+    assert!(budget.contains("\niters = 1000000\n"), "{budget}");
+    let both = printed(&["--time-budget", "30m", "--iters", "50"]);
+    assert!(both.contains("\niters = 50\n"), "{both}");
+    let neither = printed(&[]);
+    assert!(neither.contains("\niters = 4000\n"), "{neither}");
+}

@@ -14,7 +14,7 @@ use wildlight_export::{AtlasOptions, ExportOptions, MarchingOptions, export_to_d
 use wildlight_synth::{RigOptions, SynthOptions, synthesize};
 use wildlight_train::TrainConfig;
 use wildlight_train::inference::{ExportSource, RenderedView, TrainedRun, render_views_to_dir};
-use wildlight_train::run::{RunOptions, train};
+use wildlight_train::run::{RunOptions, planned_iters, train};
 
 /// Options of `wildlight demo`.
 #[derive(clap::Args, Debug)]
@@ -126,24 +126,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Duration::from_secs(12 * 60)
     });
     let run_dir = out.join("run");
-    let (config, time_budget) = match args.iters {
+    let time_budget = match args.iters {
         Some(n) => {
             eprintln!("2/5 training {n} steps …");
-            let config = TrainConfig {
-                iters: n.max(1),
-                ..TrainConfig::default()
-            };
             // --iters 0: no step at all (the untrained model, for comparisons).
-            (config, (n == 0).then_some(Duration::ZERO))
+            (n == 0).then_some(Duration::ZERO)
         }
         None => {
             eprintln!("2/5 training for {:.0} s …", budget.as_secs_f64());
-            let config = TrainConfig {
-                iters: 20_000,
-                ..TrainConfig::default()
-            };
-            (config, Some(budget))
+            Some(budget)
         }
+    };
+    let config = TrainConfig {
+        iters: planned_iters(args.iters, time_budget, 0).max(1),
+        ..TrainConfig::default()
     };
     train(&RunOptions {
         data: Some(capture.clone()),

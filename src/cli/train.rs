@@ -4,7 +4,7 @@ use anyhow::Context;
 use std::path::PathBuf;
 use wildlight_train::TrainConfig;
 use wildlight_train::config::parse_duration;
-use wildlight_train::run::{RunOptions, resumed_config, train};
+use wildlight_train::run::{RunOptions, planned_iters, resumed_config, train};
 
 /// Options of `wildlight train`.
 #[derive(clap::Args, Debug)]
@@ -25,12 +25,14 @@ pub struct Args {
     /// the run's own) and exit.
     #[arg(long)]
     pub print_config: bool,
-    /// Optimisation steps [default: the configuration's `iters`, 4000; with --resume, the
-    /// run's own].
+    /// Optimisation steps [default: the configuration's `iters`, 4000; with --time-budget,
+    /// as many as the budget allows; with --resume, the run's own].
     #[arg(long, value_name = "N")]
     pub iters: Option<u64>,
-    /// Stop after this much wall time, e.g. 90s, 30m, 1h30m (a checkpoint is written)
-    /// [default: none: stop after --iters steps].
+    /// Train for this much wall time, e.g. 90s, 30m, 1h30m (a checkpoint is written).
+    /// Without --iters the budget plans the run: it trains until the time is up, its
+    /// learning-rate decay fitted to the steps the budget allows; with --iters it stops at
+    /// whichever comes first [default: none: stop after --iters steps].
     #[arg(long, value_name = "DURATION", value_parser = parse_duration)]
     pub time_budget: Option<std::time::Duration>,
     /// Keep a snapshot of the model each time this much more wall time has passed,
@@ -65,9 +67,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(p) => TrainConfig::load(p)?,
         None => TrainConfig::default(),
     };
-    if let Some(n) = args.iters {
-        config.iters = n;
-    }
+    config.iters = planned_iters(args.iters, args.time_budget, config.iters);
     if let Some(s) = args.seed {
         config.seed = s;
     }

@@ -48,7 +48,6 @@ use wildlight_fields::{
 use wildlight_material::{PARAM_COUNT, PARAM_NAMES};
 use wildlight_synth::scenes::BuiltinScene;
 use wildlight_train::config::TrainConfig;
-use wildlight_train::material_field::{MaterialContext, MaterialField};
 use wildlight_train::rays::TrainingRays;
 use wildlight_train::run::{CHECKPOINT_FILE, load_capture, write_run_files};
 use wildlight_train::trainer::Trainer;
@@ -91,11 +90,6 @@ fn main() -> Result<()> {
     let (dataset, _) = load_capture(capture)?;
     let mut trainer = Trainer::new(config.clone(), TrainingRays::new(&dataset))?;
 
-    if fit_materials && trainer.model.material.metallic.is_some() {
-        bail!(
-            "MATERIALS = 1 fits one material network; this configuration has a metallic field of its own"
-        );
-    }
     let pool = fitting_points(scene);
     let sdf = &mut trainer.model.sdf;
     let active = sdf.field.active_levels;
@@ -105,10 +99,10 @@ fn main() -> Result<()> {
     sdf.field.active_levels = active;
     if fit_materials {
         let material = &mut trainer.model.material;
-        let levels = material.params.active_levels;
-        material.set_active_levels(usize::MAX);
+        let levels = material.active_levels;
+        material.active_levels = material.grid.levels().len();
         fit_material(material, scene, &pool, fit_steps);
-        material.set_active_levels(levels);
+        material.active_levels = levels;
     }
     trainer.refresh_grid();
 
@@ -221,7 +215,7 @@ fn fit(sdf: &mut SdfField<f32>, pool: &[([f32; 3], f32)], steps: usize) {
 /// surface, and prints the mean absolute error per parameter over the last
 /// step's points.
 fn fit_material(
-    material: &mut MaterialField<f32>,
+    material: &mut NeuralField<f32>,
     scene: BuiltinScene,
     pool: &[([f32; 3], f32)],
     steps: usize,
@@ -234,14 +228,14 @@ fn fit_material(
             (p, truth.to_array::<f32>().map(|v| v.clamp(0.01, 0.99)))
         })
         .collect();
-    let mut fitter = Fitter::new(&material.params);
+    let mut fitter = Fitter::new(material);
     let mut grads = material.new_grads();
-    let mut ctx = MaterialContext::new();
+    let mut ctx = FieldContext::new();
     let mut rng = Pcg64::seed_from_u64(6);
     let mut abs = [0.0f64; PARAM_COUNT];
     for step in 0..steps {
         let (idx, x) = draw(&mut rng, &points);
-        material.forward(&x, &mut ctx);
+        material.forward(&x, &[], &mut ctx);
         let mut d_theta = vec![0.0f32; BATCH * PARAM_COUNT];
         abs = [0.0; PARAM_COUNT];
         for (j, &i) in idx.iter().enumerate() {
@@ -252,8 +246,8 @@ fn fit_material(
             }
         }
         grads.zero();
-        material.backward(&mut ctx, &d_theta, &mut grads);
-        fitter.step(&mut material.params, &grads.params, step, steps);
+        material.backward(&mut ctx, &d_theta, &mut grads, None, None);
+        fitter.step(material, &grads, step, steps);
     }
     let names = PARAM_NAMES.iter().zip(abs);
     let listed: Vec<String> = names.map(|(n, e)| format!("{n} {e:.4}")).collect();

@@ -17,17 +17,14 @@ fn arrays(model: &Model) -> Vec<&[f32]> {
     let mut out: Vec<&[f32]> = vec![
         &model.sdf.field.grid.params,
         &model.sdf.field.mlp.params,
-        &model.material.params.grid.params,
-        &model.material.params.mlp.params,
+        &model.material.grid.params,
+        &model.material.mlp.params,
         &model.ambient.grid.params,
         &model.ambient.mlp.params,
     ];
-    for f in [&model.ambient_specular, &model.material.metallic]
-        .into_iter()
-        .flatten()
-    {
-        out.push(&f.grid.params);
-        out.push(&f.mlp.params);
+    if let Some(room) = &model.room {
+        out.push(&room.grid.params);
+        out.push(&room.mlp.params);
     }
     out
 }
@@ -37,17 +34,14 @@ fn arrays_mut(model: &mut Model) -> Vec<&mut [f32]> {
     let mut out: Vec<&mut [f32]> = vec![
         &mut model.sdf.field.grid.params,
         &mut model.sdf.field.mlp.params,
-        &mut model.material.params.grid.params,
-        &mut model.material.params.mlp.params,
+        &mut model.material.grid.params,
+        &mut model.material.mlp.params,
         &mut model.ambient.grid.params,
         &mut model.ambient.mlp.params,
     ];
-    for f in [&mut model.ambient_specular, &mut model.material.metallic]
-        .into_iter()
-        .flatten()
-    {
-        out.push(&mut f.grid.params);
-        out.push(&mut f.mlp.params);
+    if let Some(room) = &mut model.room {
+        out.push(&mut room.grid.params);
+        out.push(&mut room.mlp.params);
     }
     out
 }
@@ -129,6 +123,8 @@ mod tests {
         let model = Model::new(&config, 3).unwrap();
         let mut avg = ParameterAverage::new(&model);
         assert_eq!(avg.count, 0);
+        // the three fields and the room, each a table and a network
+        assert_eq!(arrays(&model).len(), 8);
         // Three parameter sets: θ, θ + 1 and θ + 5 (every array and the
         // scalars), whose mean is θ + 2.
         let shifted = |by: f32| {

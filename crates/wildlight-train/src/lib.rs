@@ -3,15 +3,16 @@
 //! modelled flash, fitted to flash and no-flash photographs.
 //!
 //! - [`config`]: every setting, with defaults, TOML in and out;
+//! - [`retired`]: the settings of experiments that were not kept, which a
+//!   configuration may still name;
 //! - [`model`]: the fields and scalars, and their gradients;
-//! - [`material_field`]: the fields behind the material parameters Θ;
 //! - [`rays`]: drawing training rays across all images;
 //! - [`pipeline`]: one differentiable pass over a batch of rays;
 //! - [`ambient`]: the ambient term of a pass, in its two forms;
 //! - [`loss`]: the losses of SPEC §4;
-//! - [`smoothness`]: an optional smoothness prior on the material field;
-//! - [`normal_smoothness`]: an optional smoothness prior on the normals;
-//! - [`metallic_prior`]: an optional prior pushing metallic towards 0 or 1;
+//! - [`smoothness`]: a smoothness prior on the material field;
+//! - [`normal_smoothness`]: a smoothness prior on the normals;
+//! - [`metallic_prior`]: a prior pushing metallic towards 0 or 1;
 //! - [`visual_hull`]: the masks' visual hull and a prior keeping the SDF
 //!   positive outside it (no floaters);
 //! - [`trainer`]: the optimisation step, checkpoints;
@@ -23,11 +24,9 @@
 pub mod ambient;
 pub mod averaging;
 pub mod config;
-pub mod error_map;
 pub mod float;
 pub mod inference;
 pub mod loss;
-pub mod material_field;
 pub mod metallic_prior;
 pub mod model;
 pub mod normal_smoothness;
@@ -35,6 +34,7 @@ pub mod pipeline;
 pub mod preview;
 pub mod rays;
 pub mod render_view;
+pub mod retired;
 pub mod run;
 pub mod smoothness;
 pub mod trainer;

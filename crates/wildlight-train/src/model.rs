@@ -2,12 +2,13 @@
 //! radiance field, the NeuS sharpness and the flash gain, with their
 //! gradient buffers and optimiser groups.
 
-use crate::ambient::{SPECULAR_EXTRA_INPUTS, ambient_extra_inputs};
+use crate::ambient::ambient_extra_inputs;
 use crate::config::{AmbientModel, FieldSize, ModelConfig, ROOM_FEATURES};
 use crate::float::{Float, finite};
-use crate::material_field::{MaterialContext, MaterialField, MaterialGrads};
-use wildlight_fields::{Activation, FieldGrads, NeuralField, NeuralFieldConfig, SdfField};
-use wildlight_material::{METALLIC, PARAM_COUNT};
+use wildlight_fields::{
+    Activation, FieldContext, FieldGrads, NeuralField, NeuralFieldConfig, SdfField,
+};
+use wildlight_material::PARAM_COUNT;
 
 /// The learned model, generic over the float type: `f32` for training and
 /// rendering, `f64` for the finite-difference checks of the whole pipeline.
@@ -18,15 +19,13 @@ pub struct Model<T = f32> {
     /// Signed distance φ and geometry features.
     pub sdf: SdfField<T>,
     /// Material parameters Θ = sigmoid(outputs) (SPEC §3).
-    pub material: MaterialField<T>,
-    /// Ambient radiance a ≥ 0 (softplus outputs); with
-    /// [`AmbientModel::DiffuseSpecular`], the diffuse irradiance E_d.
+    pub material: NeuralField<T>,
+    /// Ambient radiance a ≥ 0 (softplus outputs).
     pub ambient: NeuralField<T>,
-    /// The ambient term's second field: the mirrored room E_s ≥ 0 of
-    /// [`AmbientModel::DiffuseSpecular`], or the reflected-direction
-    /// features of [`AmbientModel::NeuralRoom`] (`None` for
+    /// The room: the reflected-direction features of
+    /// [`AmbientModel::NeuralRoom`], inputs of the ambient field (`None` for
     /// [`AmbientModel::Neural`]).
-    pub ambient_specular: Option<NeuralField<T>>,
+    pub room: Option<NeuralField<T>>,
     /// NeuS sharpness parameter v, s = exp(10 v).
     pub sharpness: T,
     /// Flash gain parameter g, γ = exp(g) > 0.
@@ -39,11 +38,11 @@ pub struct ModelGrads<T = f32> {
     /// Of the SDF field.
     pub sdf: FieldGrads<T>,
     /// Of the material field.
-    pub material: MaterialGrads<T>,
+    pub material: FieldGrads<T>,
     /// Of the ambient field.
     pub ambient: FieldGrads<T>,
-    /// Of the ambient specular field, when the model has one.
-    pub ambient_specular: Option<FieldGrads<T>>,
+    /// Of the room, when the model has one.
+    pub room: Option<FieldGrads<T>>,
     /// Of v.
     pub sharpness: T,
     /// Of g.
@@ -56,7 +55,7 @@ impl<T: Float> ModelGrads<T> {
         self.sdf.zero();
         self.material.zero();
         self.ambient.zero();
-        if let Some(g) = &mut self.ambient_specular {
+        if let Some(g) = &mut self.room {
             g.zero();
         }
         self.sharpness = T::ZERO;
@@ -67,9 +66,9 @@ impl<T: Float> ModelGrads<T> {
     pub fn all_finite(&self) -> bool {
         let f = FieldGrads::all_finite;
         f(&self.sdf)
-            && self.material.all_finite()
+            && f(&self.material)
             && f(&self.ambient)
-            && self.ambient_specular.as_ref().is_none_or(f)
+            && self.room.as_ref().is_none_or(f)
             && finite(self.sharpness)
             && finite(self.log_gain)
     }
@@ -146,31 +145,13 @@ impl<T: Float> Model<T> {
             seed.wrapping_add(1),
         )?;
         set_output_bias(&mut material, &config.init_material.map(logit))?;
-        let metallic = match &config.metallic_field {
-            Some(size) => {
-                let mut field =
-                    grid_mlp_field(size, 0, 1, Activation::Sigmoid, seed.wrapping_add(4))?;
-                set_output_bias(&mut field, &[logit(config.init_material[METALLIC])])?;
-                Some(field)
-            }
-            None => None,
-        };
-        let material = MaterialField {
-            params: material,
-            metallic,
-        };
         let ambient = radiance_field(
             &config.ambient,
             ambient_extra_inputs(config.ambient_model, config.geometry_features),
             seed.wrapping_add(2),
         )?;
-        let ambient_specular = match config.ambient_model {
+        let room = match config.ambient_model {
             AmbientModel::Neural => None,
-            AmbientModel::DiffuseSpecular => Some(radiance_field(
-                &config.ambient_specular,
-                SPECULAR_EXTRA_INPUTS,
-                seed.wrapping_add(3),
-            )?),
             // its grid encodes ω (a point of the unit sphere), not a position
             AmbientModel::NeuralRoom => Some(grid_mlp_field(
                 &config.ambient_room,
@@ -185,7 +166,7 @@ impl<T: Float> Model<T> {
             sdf,
             material,
             ambient,
-            ambient_specular,
+            room,
             sharpness: T::from_f64(config.init_sharpness as f64),
             log_gain: T::from_f64(config.init_log_gain as f64),
         })
@@ -197,7 +178,7 @@ impl<T: Float> Model<T> {
             sdf: self.sdf.new_grads(),
             material: self.material.new_grads(),
             ambient: self.ambient.new_grads(),
-            ambient_specular: self.ambient_specular.as_ref().map(|f| f.new_grads()),
+            room: self.room.as_ref().map(|f| f.new_grads()),
             sharpness: T::ZERO,
             log_gain: T::ZERO,
         }
@@ -218,8 +199,8 @@ impl<T: Float> Model<T> {
     where
         T: Default,
     {
-        let mut ctx = MaterialContext::new();
-        self.material.forward(points, &mut ctx);
+        let mut ctx = FieldContext::new();
+        self.material.forward(points, &[], &mut ctx);
         ctx.output()
             .chunks_exact(PARAM_COUNT)
             .map(|row| row.try_into().expect("PARAM_COUNT parameters"))
@@ -229,7 +210,7 @@ impl<T: Float> Model<T> {
     /// Sets how many hash levels of every field are active (coarse-to-fine).
     pub fn set_active_levels(&mut self, sdf_levels: usize, material_levels: usize) {
         self.sdf.field.active_levels = sdf_levels.min(self.config.sdf.levels);
-        self.material.set_active_levels(material_levels);
+        self.material.active_levels = material_levels.min(self.material.grid.levels().len());
     }
 
     /// The finite-difference step of the SDF normals: the cell size of the
@@ -243,9 +224,9 @@ impl<T: Float> Model<T> {
     pub fn all_finite(&self) -> bool {
         let f = NeuralField::all_finite;
         f(&self.sdf.field)
-            && self.material.all_finite()
+            && f(&self.material)
             && f(&self.ambient)
-            && self.ambient_specular.as_ref().is_none_or(f)
+            && self.room.as_ref().is_none_or(f)
             && finite(self.sharpness)
             && finite(self.log_gain)
     }

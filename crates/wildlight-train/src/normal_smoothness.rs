@@ -16,75 +16,36 @@
 //! finite-difference gradient at the same step), ρ(d) = sqrt(d² + η²) − η
 //! a pseudo-Huber penalty (quadratic below η, linear above, so that a
 //! crease costs no more than its length while speckle is pushed out) and Δ
-//! one of two differences ([`NormalDifference`]):
-//!
-//! - first: Δ = n(x + ε) − n(x). Curvature itself costs: a part of radius R
-//!   pays about λ·|ε|/R per pair, so small tightly curved parts are pulled
-//!   flatter;
-//! - second: Δ = P (n(x + ε) + n(x − ε) − 2 n(x)), P = I − n(x) n(x)ᵀ the
-//!   projection onto the tangent plane at x. For ε in that plane (the
-//!   trainer projects its offsets there, with the rays' expected normals),
-//!   n(x + ε) + n(x − ε) is parallel to n(x) on a sphere or a cylinder of
-//!   any radius, so Δ = 0 there: only a change of curvature (speckle, a
-//!   bump, a crease) costs. A third point per pair, x − ε, makes it cost
-//!   1.5 times the first difference's normal evaluations.
-//!
-//! Optionally (`loss.normal_smoothness_relax`) each pair is weighed by how
-//! well its ray already matches the photo ([`relaxed_weights`]): where the
-//! surface runs smoothly across a crease the photo shows (the lid's groove,
-//! the foot ring's edge), the rays stay far off and the prior lets go.
+//! the second difference Δ = P (n(x + ε) + n(x − ε) − 2 n(x)), P = I −
+//! n(x) n(x)ᵀ the projection onto the tangent plane at x. For ε in that
+//! plane (the trainer projects its offsets there, with the rays' expected
+//! normals), n(x + ε) + n(x − ε) is parallel to n(x) on a sphere or a
+//! cylinder of any radius, so Δ = 0 there: curvature itself costs nothing,
+//! only a change of curvature (speckle, a bump, a crease) does, and a small
+//! tightly curved part is not pulled flat. A third point per pair, x − ε,
+//! makes it cost 1.5 times the normal evaluations of a first difference.
 //!
 //! Only the SDF field receives the gradient (the points are held fixed).
 //! The prior is the project's addition: SPEC §4 names "curvature or normal
 //! smoothness" as welcome when measured to help. Its weight is
 //! `loss.normal_smoothness`; 0 turns it off.
 
-use crate::config::NormalDifference;
 use crate::float::{Float, dot3, of, sqrt, to_f64, unit3, unit3_backward};
-use crate::loss::counted_l1;
 use crate::smoothness::pair_points;
 use wildlight_fields::{FdScheme, FieldGrads, NormalContext, SdfField};
 
 /// The offsets ε of the normal prior's pairs: the material prior's offsets
-/// scaled by `scale` (`loss.normal_smoothness_radius` over the material
-/// pairs' reach) and, for the second difference, projected onto the
-/// tangent plane of each point's normal, since n(x + ε) + n(x − ε) − 2 n(x)
-/// is zero on a circle only for x ± ε at the same height above the surface.
-pub fn pair_offsets(
-    offsets: &[[f32; 3]],
-    normals: &[[f32; 3]],
-    difference: NormalDifference,
-    scale: f32,
-) -> Vec<[f32; 3]> {
+/// projected onto the tangent plane of each point's normal, since
+/// n(x + ε) + n(x − ε) − 2 n(x) is zero on a circle only for x ± ε at the
+/// same height above the surface.
+pub fn pair_offsets(offsets: &[[f32; 3]], normals: &[[f32; 3]]) -> Vec<[f32; 3]> {
     assert_eq!(offsets.len(), normals.len(), "one normal per offset");
-    let second = difference == NormalDifference::Second;
     offsets
         .iter()
         .zip(normals)
         .map(|(e, n)| {
-            let en = if second { dot3(*e, *n) } else { 0.0 };
-            [0, 1, 2].map(|a| (e[a] - en * n[a]) * scale)
-        })
-        .collect()
-}
-
-/// The weight 1 / (1 + (e / e₀)²) of each surface point's pair for
-/// `loss.normal_smoothness_relax` = e₀: e is the colour error of the
-/// point's ray `rays[j]` (rendered `colour` against observed `target`) under
-/// the colour loss's own saturation rule ([`counted_l1`] with the capture's
-/// clipping level `cap`), so the prior lets go where the model cannot match
-/// the photo with the surface it has (a bridged crease).
-pub fn relaxed_weights(
-    rays: &[usize],
-    colour: &[[f32; 3]],
-    target: &[[f32; 3]],
-    cap: Option<f32>,
-    e0: f32,
-) -> Vec<f32> {
-    rays.iter()
-        .map(|&r| {
-            let q = counted_l1(colour[r], target[r], cap) / e0;
-            1.0 / (1.0 + q * q)
+            let en = dot3(*e, *n);
+            [0, 1, 2].map(|a| e[a] - en * n[a])
         })
         .collect()
 }
@@ -153,37 +114,31 @@ pub struct NormalSmoothness<T> {
 }
 
 impl<T: Float + Default> NormalSmoothness<T> {
-    /// Evaluates λ · L_normal with the difference `difference` around the
-    /// points `centres[j]` and their offsets `offsets[j]`, with normals from
-    /// the tetrahedral finite differences of step `fd_step`, and ADDS its
-    /// gradient with respect to the SDF field's parameters into `grads`.
-    /// `point_weights` (one per centre; `None`: all 1) weigh the pairs.
-    /// Returns the mean of the weighted ρ, without λ.
-    #[allow(clippy::too_many_arguments)]
+    /// Evaluates λ · L_normal (λ = `weight`) around the points `centres[j]`
+    /// and their offsets `offsets[j]`, with normals from the tetrahedral
+    /// finite differences of step `fd_step`, and ADDS its gradient with
+    /// respect to the SDF field's parameters into `grads`. Returns the mean
+    /// of ρ, without λ.
     pub fn forward_backward(
         &mut self,
         sdf: &SdfField<T>,
         centres: &[[T; 3]],
         offsets: &[[T; 3]],
-        difference: NormalDifference,
         fd_step: f64,
         weight: T,
-        point_weights: Option<&[T]>,
         grads: &mut FieldGrads<T>,
     ) -> f64 {
         let m = pair_points(centres, offsets, &mut self.points);
         if m == 0 {
             return 0.0;
         }
-        if difference == NormalDifference::Second {
-            // The third set of points: centre − offset.
-            self.points.extend(
-                centres[..m]
-                    .iter()
-                    .zip(offsets)
-                    .map(|(c, e)| [c[0] - e[0], c[1] - e[1], c[2] - e[2]]),
-            );
-        }
+        // The third set of points: centre − offset.
+        self.points.extend(
+            centres[..m]
+                .iter()
+                .zip(offsets)
+                .map(|(c, e)| [c[0] - e[0], c[1] - e[1], c[2] - e[2]]),
+        );
         let n_points = self.points.len();
         sdf.forward_with_normals(&self.points, FdScheme::Tetrahedral, fd_step, &mut self.ctx);
         let scale = weight / of(m as f64);
@@ -192,31 +147,16 @@ impl<T: Float + Default> NormalSmoothness<T> {
         self.d_gradient.resize(n_points, [T::ZERO; 3]);
         let g = &self.ctx.gradient;
         for j in 0..m {
-            let w = point_weights.map_or(T::ONE, |w| w[j]);
-            let scale = scale * w;
             let (n0, len0) = unit3(g[j]);
             let (n1, len1) = unit3(g[m + j]);
-            match difference {
-                NormalDifference::First => {
-                    let d = [0, 1, 2].map(|a| n1[a] - n0[a]);
-                    let (rho, u) = pseudo_huber(d);
-                    sum += to_f64(w * rho);
-                    // ∂ρ/∂n(x + ε) = u, ∂ρ/∂n(x) = −u, then through n = g/|g|.
-                    let u = u.map(|v| scale * v);
-                    self.d_gradient[m + j] = unit3_backward(u, n1, len1);
-                    self.d_gradient[j] = unit3_backward(u.map(|v| -v), n0, len0);
-                }
-                NormalDifference::Second => {
-                    let (n2, len2) = unit3(g[2 * m + j]);
-                    let sd = second_difference(n0, n1, n2);
-                    let (rho, u) = pseudo_huber(sd.tangential);
-                    sum += to_f64(w * rho);
-                    let (d0, pu) = sd.backward(n0, u.map(|v| scale * v));
-                    self.d_gradient[m + j] = unit3_backward(pu, n1, len1);
-                    self.d_gradient[2 * m + j] = unit3_backward(pu, n2, len2);
-                    self.d_gradient[j] = unit3_backward(d0, n0, len0);
-                }
-            }
+            let (n2, len2) = unit3(g[2 * m + j]);
+            let sd = second_difference(n0, n1, n2);
+            let (rho, u) = pseudo_huber(sd.tangential);
+            sum += to_f64(rho);
+            let (d0, pu) = sd.backward(n0, u.map(|v| scale * v));
+            self.d_gradient[m + j] = unit3_backward(pu, n1, len1);
+            self.d_gradient[2 * m + j] = unit3_backward(pu, n2, len2);
+            self.d_gradient[j] = unit3_backward(d0, n0, len0);
         }
         self.d_sdf.clear();
         self.d_sdf.resize(n_points, T::ZERO);

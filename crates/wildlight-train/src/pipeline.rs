@@ -14,10 +14,9 @@
 
 use crate::ambient::{AmbientInputGrads, AmbientInputs, AmbientPass};
 use crate::float::{Float, finite, norm3, of, safe_norm3, to_f64, unit3, unit3_backward};
-use crate::material_field::MaterialContext;
 use crate::model::{Model, ModelGrads};
 use wildlight_fields::{FdScheme, FieldContext, NormalContext};
-use wildlight_material::{METALLIC, PARAM_COUNT};
+use wildlight_material::PARAM_COUNT;
 use wildlight_render::{
     CoarseSamples, FlashCache, FlashInputs, NeusInputs, NeusSettings, NeusWeights, OccupancyGrid,
     RaySamples, Rays, Sampler, composite, composite_backward, flash_backward, flash_forward,
@@ -89,13 +88,10 @@ pub struct PassSettings {
     /// The ε of the NeuS alpha (SPEC §2: 1e-5, [`wildlight_render::neus::ALPHA_EPS`]);
     /// comparisons between samplers set it to 0 (see [`NeusSettings::alpha_eps`]).
     pub alpha_eps: f64,
-    /// Holds every sample's metallic value at this (no gradient reaches the
-    /// material field through it); `None`: the field's own.
-    pub metallic_hold: Option<f64>,
     /// The factor on the gradient the flash photos send to the ambient
     /// term, in [0, 1] (the trainer's schedule of
-    /// `model.ambient_flash_gradient` and its late value; 1 leaves the
-    /// gradient whole, and a pass without a backward ignores it).
+    /// `model.ambient_flash_gradient_late`; 1 leaves the gradient whole,
+    /// and a pass without a backward ignores it).
     pub ambient_flash_gradient: f64,
 }
 
@@ -113,7 +109,7 @@ pub struct Pipeline<T = f32> {
     n_samples: usize,
     /// NeuS alphas, weights and Σw of the last pass.
     pub weights: NeusWeights<T>,
-    material_ctx: MaterialContext<T>,
+    material_ctx: FieldContext<T>,
     ambient_pass: AmbientPass<T>,
     flash_cache: FlashCache<T>,
     /// Material parameters at each sample.
@@ -161,8 +157,6 @@ pub struct SurfacePoints<T> {
     pub centres: Vec<[T; 3]>,
     /// Their unit expected normals.
     pub normals: Vec<[T; 3]>,
-    /// The index of each point's ray in the pass.
-    pub rays: Vec<usize>,
 }
 
 impl Pipeline<f32> {
@@ -254,7 +248,7 @@ impl<T: Float + Default> Pipeline<T> {
         // Material parameters Θ = sigmoid(outputs) (SPEC §3).
         model
             .material
-            .forward(&self.samples.positions, &mut self.material_ctx);
+            .forward(&self.samples.positions, &[], &mut self.material_ctx);
         self.theta.clear();
         self.theta.extend(
             self.material_ctx
@@ -262,12 +256,6 @@ impl<T: Float + Default> Pipeline<T> {
                 .chunks_exact(PARAM_COUNT)
                 .map(|r| <[T; PARAM_COUNT]>::try_from(r).expect("9 outputs")),
         );
-        if let Some(m) = settings.metallic_hold {
-            let m = of::<T>(m);
-            for theta in &mut self.theta {
-                theta[METALLIC] = m;
-            }
-        }
 
         // Unit normals n = ∇φ/|∇φ| and the ambient term (crate::ambient).
         self.normals.clear();
@@ -332,7 +320,7 @@ impl<T: Float + Default> Pipeline<T> {
     /// The expected hit point Σ w_k x_k / Σw of every ray of the last pass
     /// whose Σw is at least `min_acc` (rays that meet the surface), with
     /// the unit expected normal Σ w_k n_k / |Σ w_k n_k| (zero where that
-    /// sum vanishes) and the index of the ray.
+    /// sum vanishes).
     pub fn surface_points(&self, min_acc: f64) -> SurfacePoints<T> {
         let offsets = &self.samples.offsets;
         let mut points = SurfacePoints::default();
@@ -351,7 +339,6 @@ impl<T: Float + Default> Pipeline<T> {
             }
             points.centres.push(p.map(|c| c / acc));
             points.normals.push(unit3(n).0);
-            points.rays.push(r);
         }
         points
     }
@@ -435,7 +422,7 @@ impl<T: Float + Default> Pipeline<T> {
             &ambient_inputs(&self.samples, ctx, rays, &self.normals, &self.theta, nf),
             &self.d_colour_sample,
             &mut grads.ambient,
-            grads.ambient_specular.as_mut(),
+            grads.room.as_mut(),
             AmbientInputGrads {
                 features: &mut self.d_features,
                 normals: &mut self.d_normal,
@@ -451,16 +438,13 @@ impl<T: Float + Default> Pipeline<T> {
             }
         }
 
-        // Material field (a held metallic value passes no gradient).
-        if settings.metallic_hold.is_some() {
-            for d in &mut self.d_theta {
-                d[METALLIC] = T::ZERO;
-            }
-        }
+        // Material field.
         model.material.backward(
             &mut self.material_ctx,
             self.d_theta.as_flattened(),
             &mut grads.material,
+            None,
+            None,
         );
 
         // NeuS weights → φ, ∇φ, v.

@@ -8,12 +8,9 @@
 //! where the mask loss has something to say: a notch the silhouette shows
 //! where a groove crosses the outline is a few pixels out of 65,536, and a
 //! uniform draw reaches each of them about once in a whole training run.
-//! A fourth kind, optional, draws pixels where the model's colour error is
-//! large ([`crate::error_map`]). Flash images can be drawn more (or less)
-//! often than no-flash ones, in every kind of draw
-//! ([`TrainingRays::set_flash_weight`]).
+//! Flash images can be drawn more (or less) often than no-flash ones, in
+//! every kind of draw ([`TrainingRays::set_flash_weight`]).
 
-use crate::error_map::ErrorMap;
 use rand::Rng;
 use wildlight_data::{Camera, Dataset};
 
@@ -25,9 +22,6 @@ pub struct TrainingRays {
     /// (view, pixel index) of every pixel of the silhouette band (empty
     /// until [`TrainingRays::set_silhouette_band`]).
     silhouette: Vec<(u32, u32)>,
-    /// The per-tile colour error estimates of error-guided draws (none
-    /// until [`TrainingRays::set_error_map`]).
-    error_map: Option<ErrorMap>,
     /// Saturation cap of the capture.
     pub saturation: Option<f32>,
     /// Whether the capture has masks.
@@ -54,8 +48,6 @@ pub struct RayShares {
     pub foreground: f64,
     /// Share of the rays drawn from the silhouette band.
     pub silhouette: f64,
-    /// Share of the rays drawn in proportion to the error map.
-    pub error: f64,
 }
 
 /// Grows the set flags of a `width × height` image by `radius` pixels in
@@ -168,7 +160,6 @@ impl TrainingRays {
             views,
             foreground,
             silhouette: Vec::new(),
-            error_map: None,
             saturation: dataset.saturation,
             keep: None,
         }
@@ -242,30 +233,6 @@ impl TrainingRays {
         }
     }
 
-    /// Starts error-guided draws over `tile` × `tile` pixel tiles (none
-    /// when `tile` is 0); every tile with a foreground pixel starts at
-    /// [`ErrorMap::INITIAL`].
-    pub fn set_error_map(&mut self, tile: u32) {
-        self.error_map = (tile > 0).then(|| {
-            let views: Vec<(u32, u32, Option<&[bool]>)> = self
-                .views
-                .iter()
-                .map(|v| (v.width, v.height, v.mask.as_deref()))
-                .collect();
-            ErrorMap::new(tile, &views)
-        });
-    }
-
-    /// The error map, when error-guided draws are on.
-    pub fn error_map(&self) -> Option<&ErrorMap> {
-        self.error_map.as_ref()
-    }
-
-    /// The error map, to record errors into or restore from a checkpoint.
-    pub fn error_map_mut(&mut self) -> Option<&mut ErrorMap> {
-        self.error_map.as_mut()
-    }
-
     /// The visual hull of the views' masks, each dilated by `dilation`
     /// pixels (`crate::visual_hull`); `None` when a view has no mask.
     pub fn visual_hull(&self, dilation: usize) -> Option<crate::visual_hull::VisualHull> {
@@ -288,10 +255,9 @@ impl TrainingRays {
     }
 
     /// Draws `n` rays: `shares.foreground` of them from foreground pixels,
-    /// `shares.silhouette` from the silhouette band, `shares.error` in
-    /// proportion to the error map, the rest uniformly from all pixels of
-    /// all views (a kind with no pixels, or an error map that is off or all
-    /// zero, gives its share to the uniform draws).
+    /// `shares.silhouette` from the silhouette band, the rest uniformly from
+    /// all pixels of all views (a kind with no pixels gives its share to the
+    /// uniform draws).
     pub fn draw(&self, rng: &mut impl Rng, n: usize, shares: RayShares, out: &mut RayBatch) {
         *out = RayBatch::default();
         let count = |available: bool, share: f64| {
@@ -312,12 +278,6 @@ impl TrainingRays {
                 );
                 out.push(v, &self.views[v as usize], p);
             }
-        }
-        if let Some(map) = &self.error_map {
-            // The error map weighs its tiles itself; view weights do not
-            // apply to its draws.
-            let n_err = count(true, shares.error).min(n - out.len());
-            map.draw(rng, n_err, |v, p| out.push(v, &self.views[v as usize], p));
         }
         for _ in out.len()..n {
             let v = self.draw_kept(
@@ -434,7 +394,6 @@ mod tests {
             views,
             foreground,
             silhouette: Vec::new(),
-            error_map: None,
             saturation: None,
             has_masks: true,
             keep: None,
@@ -445,7 +404,6 @@ mod tests {
     fn draws_follow_the_shares() {
         // One 16×16 view whose red channel is the pixel index, with a 6×6
         // object in the middle.
-        let (w, h) = (16u32, 16u32);
         let mut rays = rays_of(vec![test_view([0.0; 3])]);
         let object = rays.views[0].mask.clone().unwrap();
         rays.set_silhouette_band(1);
@@ -454,7 +412,6 @@ mod tests {
         let shares = RayShares {
             foreground: 0.5,
             silhouette: 0.25,
-            error: 0.0,
         };
         let mut rng = rand_pcg::Pcg64::seed_from_u64(7);
         let mut batch = RayBatch::default();
@@ -500,39 +457,14 @@ mod tests {
         );
         assert_eq!(again.target, plain.target);
 
-        // Error-guided draws: with one 4×4 tile measured far worse than the
-        // rest, the error share lands almost only there; the batch still
-        // has n rays, and each remembers the pixel it came from.
-        rays.set_error_map(4);
-        let map = rays.error_map_mut().unwrap();
-        for p in 0..w * h {
-            let (x, y) = (p % w, p / w);
-            let hot = (8..12).contains(&x) && (8..12).contains(&y);
-            for _ in 0..30 {
-                map.record(0, p, if hot { 2.0 } else { 0.001 });
-            }
-        }
-        let guided = RayShares {
-            foreground: 0.5,
-            silhouette: 0.0,
-            error: 0.25,
-        };
-        let mut batch = RayBatch::default();
-        rays.draw(&mut rng, 400, guided, &mut batch);
-        assert_eq!(batch.len(), 400);
-        let drawn: Vec<u32> = batch.target.iter().map(|t| t[0] as u32).collect();
+        // Each ray remembers the pixel it came from.
         assert!(
-            batch
+            again
                 .pixels
                 .iter()
-                .zip(&drawn)
-                .all(|((v, p), d)| *v == 0 && p == d)
+                .zip(&again.target)
+                .all(|((v, p), t)| *v == 0 && *p == t[0] as u32)
         );
-        let hot = drawn[200..300]
-            .iter()
-            .filter(|p| (8..12).contains(&(**p % w)) && (8..12).contains(&(**p / w)))
-            .count();
-        assert!(hot >= 95, "{hot} of 100 error draws in the hot tile");
     }
 
     #[test]
@@ -542,7 +474,6 @@ mod tests {
         let shares = RayShares {
             foreground: 0.5,
             silhouette: 0.0,
-            error: 0.0,
         };
         let draw = |rays: &TrainingRays| {
             let mut batch = RayBatch::default();

@@ -37,7 +37,6 @@ pub fn render_view(
         jitter_seed: None,
         for_backward: false,
         alpha_eps: wildlight_render::neus::ALPHA_EPS,
-        metallic_hold: None,
         ambient_flash_gradient: 1.0,
     };
     let (mut origins, mut dirs) = (Vec::new(), Vec::new());

@@ -55,7 +55,10 @@ pub struct RunOptions {
     pub out: PathBuf,
     /// The configuration (ignored with `resume`: the run's own is used).
     pub config: TrainConfig,
-    /// Stop after this much wall time.
+    /// Stop after this much wall time (or at `config.iters` steps, whichever
+    /// comes first); the learning-rate decay is fitted to the steps it
+    /// allows at the pace measured. [`planned_iters`] gives the step count
+    /// of a run that the budget alone should end.
     pub time_budget: Option<Duration>,
     /// Keep a snapshot of the model each time this much more wall time has
     /// passed (`RUN/snapshots/`), e.g. for a training curve against time.
@@ -65,7 +68,8 @@ pub struct RunOptions {
     /// Continue the run in `out` from its checkpoint.
     pub resume: bool,
     /// With `resume`: train on to this many steps in all, if more than the
-    /// run's own `iters` (`None`: the run's own step count).
+    /// run's own (`None`: the run's own step count, or with a time budget
+    /// alone, as many as the budget allows; [`planned_iters`]).
     pub resume_iters: Option<u64>,
     /// Show a progress bar.
     pub progress: bool,
@@ -126,6 +130,26 @@ pub fn read_run(run: &Path) -> anyhow::Result<(TrainConfig, RunInfo)> {
     Ok((config, info))
 }
 
+/// The step count (`iters`) of a run that its time budget alone plans: it
+/// trains until the time is up, and this only bounds it. A run folder whose
+/// `iters` is this was planned by its budget, and its own step count is
+/// the one the budget planned.
+pub const BUDGET_MAX_STEPS: u64 = 1_000_000;
+
+/// The step count a run trains to, from the steps asked for (`--iters`)
+/// and the time budget: the steps asked for when given (a time budget may
+/// still stop the run sooner); with a budget alone [`BUDGET_MAX_STEPS`],
+/// so that the budget ends the run and the learning-rate decay is fitted
+/// to the steps it allows; with neither, `otherwise` (the configuration's,
+/// or a resumed run's own).
+pub fn planned_iters(iters: Option<u64>, time_budget: Option<Duration>, otherwise: u64) -> u64 {
+    match (iters, time_budget) {
+        (Some(n), _) => n,
+        (None, Some(_)) => BUDGET_MAX_STEPS,
+        (None, None) => otherwise,
+    }
+}
+
 /// The configuration a resumed run trains with, and its description: the
 /// run's own, its step count raised to `iters` when that is more.
 pub fn resumed_config(run: &Path, iters: Option<u64>) -> anyhow::Result<(TrainConfig, RunInfo)> {
@@ -163,7 +187,7 @@ pub fn load_capture(data: &Path) -> anyhow::Result<(Dataset, Vec<String>)> {
 pub fn train(opts: &RunOptions) -> anyhow::Result<RunSummary> {
     let ckpt = opts.out.join(CHECKPOINT_FILE);
     let (config, data) = if opts.resume {
-        let (config, info) = resumed_config(&opts.out, opts.resume_iters)?;
+        let (config, info) = read_run(&opts.out)?;
         if !ckpt.exists() {
             bail!(
                 "{}: nothing to resume (no {CHECKPOINT_FILE})",
@@ -189,13 +213,22 @@ pub fn train(opts: &RunOptions) -> anyhow::Result<RunSummary> {
     for w in &warnings {
         eprintln!("warning: {w}");
     }
-    write_run_files(&opts.out, &config, &data)?;
-
     let rays = TrainingRays::new(&dataset);
-    let mut trainer = Trainer::new(config.clone(), rays)?;
+    let mut trainer = Trainer::new(config, rays)?;
     if opts.resume {
         trainer.load_checkpoint(&ckpt)?;
+        // The run's own step count: the one its budget planned, for a run
+        // that its budget alone planned.
+        let own = if trainer.config.iters == BUDGET_MAX_STEPS {
+            trainer.planned_total_steps()
+        } else {
+            trainer.config.iters
+        };
+        let asked = opts.resume_iters.map(|n| n.max(own));
+        trainer.set_iters(planned_iters(asked, opts.time_budget, own));
     }
+    let config = trainer.config.clone();
+    write_run_files(&opts.out, &config, &data)?;
     let preview_view = dataset
         .val
         .as_ref()
@@ -231,6 +264,13 @@ pub fn train(opts: &RunOptions) -> anyhow::Result<RunSummary> {
     let mut snapshots = 0u32;
     while trainer.step < config.iters {
         if opts.time_budget.is_some_and(|b| start.elapsed() >= b) {
+            if config.iters == BUDGET_MAX_STEPS {
+                // The budget alone planned the run, and it ends here (even
+                // before its pace was measured): so `--resume` with no more
+                // steps or time has nothing left to do.
+                let planned = trainer.planned_total_steps().min(trainer.step);
+                trainer.plan_total_steps(planned);
+            }
             break;
         }
         let stats = trainer.step();

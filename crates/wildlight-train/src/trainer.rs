@@ -5,15 +5,14 @@
 //! continues exactly.
 
 use crate::averaging::ParameterAverage;
-use crate::config::{SmoothnessFactors, TrainConfig};
-use crate::loss::{add_colour_l2, colour_l1, counted_l1, mask_bce, psnr};
-use crate::material_field::MaterialField;
-use crate::metallic_prior::{BinaryMetallic, MetalAnchor, PushScope};
+use crate::config::TrainConfig;
+use crate::loss::{colour_l1, mask_bce, psnr};
+use crate::metallic_prior::BinaryMetallic;
 use crate::model::{Model, ModelGrads};
 use crate::normal_smoothness::{self, NormalSmoothness};
 use crate::pipeline::{PassSettings, Pipeline, RayInputs, SurfacePoints, eval_sdf};
 use crate::rays::{RayBatch, RayShares, TrainingRays};
-use crate::smoothness::{MaterialSmoothness, SmoothnessSettings};
+use crate::smoothness::MaterialSmoothness;
 use crate::visual_hull::HullPrior;
 use anyhow::Context;
 use rand::{Rng, SeedableRng};
@@ -24,7 +23,6 @@ use wildlight_fields::{
     Adam, AdamConfig, Checkpoint, CheckpointWriter, Checkpointable, Decay, FieldContext,
     LrSchedule, NeuralField,
 };
-use wildlight_material::{METALLIC, PARAM_COUNT};
 use wildlight_render::{OccupancyGrid, OccupancySnapshot, RefreshMode, Sampler, cos_anneal_ratio};
 
 /// What one step measured.
@@ -104,10 +102,8 @@ struct Groups {
     amb_mlp: usize,
     sharpness: usize,
     gain: usize,
-    /// The ambient specular field's grid and MLP, when the model has one.
-    amb_specular: Option<(usize, usize)>,
-    /// The metallic field's grid and MLP, when the model has one.
-    metallic: Option<(usize, usize)>,
+    /// The room's grid and MLP, when the model has one.
+    room: Option<(usize, usize)>,
 }
 
 /// The state of a training run.
@@ -129,10 +125,6 @@ pub struct Trainer {
     smoothness: MaterialSmoothness<f32>,
     normal_smoothness: NormalSmoothness<f32>,
     binary_metallic: BinaryMetallic<f32>,
-    metal_anchor: MetalAnchor<f32>,
-    /// The material field when the binary-metallic push began (held only
-    /// while it pushes, with a metal anchor).
-    metal_snapshot: Option<MaterialField<f32>>,
     /// The visual-hull prior (`None` when off or without masks).
     hull_prior: Option<HullPrior>,
     rays: TrainingRays,
@@ -168,11 +160,6 @@ impl Trainer {
             0
         });
         rays.set_flash_weight(config.flash_view_weight);
-        rays.set_error_map(if config.error_fraction > 0.0 {
-            config.error_tile
-        } else {
-            0
-        });
         let model = Model::new(&config.model, config.seed)?;
         let mut adam = Adam::new();
         let o = &config.optim;
@@ -203,7 +190,7 @@ impl Trainer {
         let (mat_grid, mat_mlp) = add_field(
             &mut adam,
             "material",
-            &model.material.params,
+            &model.material,
             gf.material,
             mf.material,
         );
@@ -232,26 +219,10 @@ impl Trainer {
                     ..AdamConfig::default()
                 },
             ),
-            amb_specular: None,
-            metallic: None,
+            room: None,
         };
-        if let Some(f) = &model.ambient_specular {
-            groups.amb_specular = Some(add_field(
-                &mut adam,
-                "ambient_specular",
-                f,
-                gf.ambient,
-                mf.ambient,
-            ));
-        }
-        if let Some(f) = &model.material.metallic {
-            groups.metallic = Some(add_field(
-                &mut adam,
-                "metallic",
-                f,
-                gf.material,
-                mf.material,
-            ));
+        if let Some(f) = &model.room {
+            groups.room = Some(add_field(&mut adam, ROOM, f, gf.ambient, mf.ambient));
         }
         let grid = OccupancyGrid::new(config.sampling.occupancy())?;
         let sampler = Sampler::new(config.sampling.sampler())?;
@@ -260,7 +231,7 @@ impl Trainer {
             warmup_start_factor: 0.01,
             decay: Decay::Cosine {
                 total_steps: config.iters,
-                final_factor: o.final_lr_factor,
+                final_factor: o.lr_factor_final,
             },
         };
         let grads = model.new_grads();
@@ -282,8 +253,6 @@ impl Trainer {
             smoothness: MaterialSmoothness::default(),
             normal_smoothness: NormalSmoothness::default(),
             binary_metallic: BinaryMetallic::default(),
-            metal_anchor: MetalAnchor::default(),
-            metal_snapshot: None,
             hull_prior,
             rays,
             adam,
@@ -301,35 +270,21 @@ impl Trainer {
         Ok(t)
     }
 
-    /// The squared colour term's weight at `step`: `loss.color_l2` from
-    /// `loss.color_l2_start` × the planned steps on, 0 before.
-    pub fn colour_l2_weight(&self, step: u64) -> f64 {
-        let loss = &self.config.loss;
-        let start = self.share_of_planned_steps(loss.color_l2_start);
-        if step >= start { loss.color_l2 } else { 0.0 }
-    }
-
     /// `share` × the planned steps, rounded up.
     fn share_of_planned_steps(&self, share: f64) -> u64 {
         (share * self.planned_total_steps() as f64).ceil() as u64
     }
 
-    /// The steps that hold every metallic value at its start:
-    /// `optim.metallic_hold` × the planned steps, rounded up.
-    pub fn metallic_hold_steps(&self) -> u64 {
-        self.share_of_planned_steps(self.config.optim.metallic_hold)
-    }
-
     /// The factor on the flash photos' ambient gradient at `step`:
     /// `model.ambient_flash_gradient_late` from
     /// `model.ambient_flash_gradient_late_from` × the planned steps (rounded
-    /// up) on, `model.ambient_flash_gradient` before.
+    /// up) on, 1 before.
     pub fn ambient_flash_gradient(&self, step: u64) -> f64 {
         let model = &self.config.model;
         if step >= self.share_of_planned_steps(model.ambient_flash_gradient_late_from) {
             model.ambient_flash_gradient_late
         } else {
-            model.ambient_flash_gradient
+            1.0
         }
     }
 
@@ -362,22 +317,16 @@ impl Trainer {
         }
     }
 
-    /// The first step of the binary-metallic prior:
-    /// `loss.binary_metallic_start` × the planned steps, rounded up.
-    pub fn binary_metallic_start_step(&self) -> u64 {
-        self.share_of_planned_steps(self.config.loss.binary_metallic_start)
-    }
-
-    /// The material smoothness prior's saturation scale at `step`:
-    /// `loss.smoothness_saturation` from `loss.smoothness_saturation_start`
-    /// × the planned steps (rounded up) on, 0 (plain L1) before.
-    pub fn smoothness_saturation(&self, step: u64) -> f64 {
+    /// The steps on which the binary-metallic prior pushes:
+    /// `loss.binary_metallic_from` to `loss.binary_metallic_until` × the
+    /// planned steps, each rounded up (empty when the prior is off).
+    pub fn binary_metallic_steps(&self) -> std::ops::Range<u64> {
         let loss = &self.config.loss;
-        if step >= self.share_of_planned_steps(loss.smoothness_saturation_start) {
-            loss.smoothness_saturation
-        } else {
-            0.0
+        if loss.binary_metallic <= 0.0 {
+            return 0..0;
         }
+        self.share_of_planned_steps(loss.binary_metallic_from)
+            ..self.share_of_planned_steps(loss.binary_metallic_until)
     }
 
     /// The learning rate's schedule with factor 1 through the warm-up,
@@ -415,19 +364,6 @@ impl Trainer {
         loss.normal_smoothness * self.prior_anneal(loss.normal_smoothness_final).factor(step)
     }
 
-    /// The smoothness pairs' offset at `step`: `loss.smoothness_radius`,
-    /// or, with `loss.smoothness_radius_start` set, that offset through the
-    /// warm-up falling along the learning rate's cosine to
-    /// `smoothness_radius` at the last planned step.
-    pub fn smoothness_radius(&self, step: u64) -> f64 {
-        let loss = &self.config.loss;
-        if loss.smoothness_radius_start <= 0.0 {
-            return loss.smoothness_radius;
-        }
-        let anneal = self.prior_anneal(loss.smoothness_radius / loss.smoothness_radius_start);
-        loss.smoothness_radius_start * anneal.factor(step)
-    }
-
     /// Sets the step at which the learning rate reaches its final factor
     /// (the cosine decay's length), e.g. from the steps a time budget is
     /// expected to allow. It never exceeds the configured `iters`.
@@ -436,6 +372,13 @@ impl Trainer {
         if let Decay::Cosine { total_steps, .. } = &mut self.schedule.decay {
             *total_steps = total;
         }
+    }
+
+    /// Sets the steps the run trains to (`iters`), keeping the planned
+    /// steps within them.
+    pub fn set_iters(&mut self, iters: u64) {
+        self.config.iters = iters.max(1);
+        self.plan_total_steps(self.planned_total_steps());
     }
 
     /// The step at which the learning rate reaches its final factor.
@@ -495,16 +438,9 @@ impl Trainer {
         }
         let cfg = &self.config;
         let mut rng = Pcg64::seed_from_u64(mix(cfg.seed, step, 1));
-        // Before `error_from` the error-guided share is drawn from the foreground.
-        let error = if step >= self.share_of_planned_steps(cfg.error_from) {
-            cfg.error_fraction
-        } else {
-            0.0
-        };
         let shares = RayShares {
-            foreground: cfg.foreground_fraction + (cfg.error_fraction - error),
+            foreground: cfg.foreground_fraction,
             silhouette: cfg.silhouette_fraction,
-            error,
         };
         self.rays
             .draw(&mut rng, cfg.batch_rays, shares, &mut self.batch);
@@ -528,8 +464,6 @@ impl Trainer {
             jitter_seed: Some(mix(self.config.seed, step, 2)),
             for_backward: true,
             alpha_eps: wildlight_render::neus::ALPHA_EPS,
-            metallic_hold: (step < self.metallic_hold_steps())
-                .then(|| f64::from(self.config.model.init_material[METALLIC])),
             ambient_flash_gradient: self.ambient_flash_gradient(step),
         };
         let rays = RayInputs {
@@ -557,18 +491,6 @@ impl Trainer {
             cfg.loss.color as f32,
             &mut self.d_colour,
         );
-        let l2_weight = self.colour_l2_weight(step);
-        let cfg = &self.config;
-        if l2_weight > 0.0 {
-            add_colour_l2(
-                &self.pipeline.colour,
-                &self.batch.target,
-                &counts,
-                self.rays.saturation,
-                l2_weight as f32,
-                &mut self.d_colour,
-            );
-        }
         let mask = if has_masks {
             mask_bce(
                 self.pipeline.acc_weight(),
@@ -608,10 +530,8 @@ impl Trainer {
             None => 0.0,
         };
         let t_update = Instant::now();
-        self.record_errors(&counts);
         let cfg = &self.config;
         let loss = cfg.loss.color * color
-            + l2_weight * mse
             + cfg.loss.mask * mask
             + cfg.loss.eikonal * eikonal
             + self.material_smoothness_weight(step) * smoothness
@@ -659,170 +579,59 @@ impl Trainer {
         }
     }
 
-    /// Feeds each counted ray's colour error (the summed L1 error of its
-    /// counted channels, as in the loss) into the error map, when there is one.
-    fn record_errors(&mut self, counts: &[bool]) {
-        let cap = self.rays.saturation;
-        let Some(map) = self.rays.error_map_mut() else {
-            return;
-        };
-        let batch = &self.batch;
-        for (i, &(view, pixel)) in batch.pixels.iter().enumerate() {
-            if !counts[i] {
-                continue;
-            }
-            map.record(
-                view,
-                pixel,
-                counted_l1(self.pipeline.colour[i], batch.target[i], cap),
-            );
-        }
-    }
-
-    /// The priors over the surface points of the last pass: smoothness of
+    /// The priors over the surface points of the last pass: the
+    /// binary-metallic prior (crate::metallic_prior) at the points
+    /// themselves on [`Self::binary_metallic_steps`], and the smoothness of
     /// the material field (crate::smoothness) and of the normals
     /// (crate::normal_smoothness), each point paired with a point offset
-    /// uniformly within `loss.smoothness_radius` per axis, and the
-    /// binary-metallic prior (crate::metallic_prior) at the points
-    /// themselves (from [`Self::binary_metallic_start_step`] until
-    /// `loss.binary_metallic_end` × the planned steps); adds their
+    /// uniformly within `loss.smoothness_radius` per axis; adds their
     /// gradients and returns their unweighted values (0 for a prior that is
-    /// off, or not yet on). The offsets are drawn only when a
+    /// off, or not on at this step). The offsets are drawn only when a
     /// smoothness prior is on, so a run with both off draws the same random
     /// numbers as before they existed.
     fn surface_priors(&mut self, rng: &mut Pcg64, fd_step: f64, step: u64) -> (f64, f64, f64) {
         let loss = &self.config.loss;
         let smooth = loss.material_smoothness > 0.0 || loss.normal_smoothness > 0.0;
-        let binary_on = loss.binary_metallic > 0.0
-            && step >= self.binary_metallic_start_step()
-            && step < self.share_of_planned_steps(loss.binary_metallic_end);
-        if !binary_on {
-            // the anchor's snapshot lives as long as the push
-            self.metal_snapshot = None;
-        }
+        let binary_on = self.binary_metallic_steps().contains(&step);
         if !smooth && !binary_on {
             return (0.0, 0.0, 0.0);
         }
-        let SurfacePoints {
-            centres,
-            normals,
-            rays: point_rays,
-        } = self.pipeline.surface_points(0.5);
+        let SurfacePoints { centres, normals } = self.pipeline.surface_points(0.5);
         let binary = if binary_on {
-            let min_resolution = loss.binary_metallic_min_resolution;
-            let scope = if loss.binary_metallic_readout_only {
-                PushScope::MetallicReadout
-            } else if min_resolution > 0 {
-                let grid = &self.model.material.metallic_source().0.grid;
-                PushScope::TableFrom(
-                    grid.levels()
-                        .iter()
-                        .find(|level| level.resolution >= min_resolution)
-                        .map_or(grid.n_params(), |level| level.param_offset),
-                )
-            } else {
-                PushScope::Everywhere
-            };
-            let value = self.binary_metallic.forward_backward(
+            self.binary_metallic.forward_backward(
                 &self.model.material,
                 &centres,
                 loss.binary_metallic as f32,
-                loss.binary_metallic_ceiling as f32,
-                scope,
                 &mut self.grads.material,
-            );
-            if loss.binary_metallic_anchor > 0.0 {
-                let snapshot = self
-                    .metal_snapshot
-                    .get_or_insert_with(|| self.model.material.clone());
-                self.metal_anchor.forward_backward(
-                    &self.model.material,
-                    snapshot,
-                    &centres,
-                    loss.binary_metallic_anchor as f32,
-                    &mut self.grads.material,
-                );
-            }
-            value
+            )
         } else {
             0.0
         };
         if !smooth {
             return (0.0, 0.0, binary);
         }
-        let radius = self.smoothness_radius(step);
-        let offsets = random_offsets(rng, centres.len(), radius);
-        let material_weight = self.material_smoothness_weight(step);
+        let offsets = random_offsets(rng, centres.len(), loss.smoothness_radius);
+        let material_weight = self.material_smoothness_weight(step) as f32;
+        let normal_weight = self.normal_smoothness_weight(step) as f32;
         let loss = &self.config.loss;
-        let saturation = SmoothnessFactors::scales_of(
-            &loss.smoothness_saturated_parameters,
-            self.smoothness_saturation(step),
-        )
-        .map(|c| c as f32);
         let material = if loss.material_smoothness > 0.0 {
-            // The parameters of `wide_smoothness_parameters` are compared
-            // at the wide offsets, drawn (after the others) only when there
-            // are any, so a run without them draws what it drew before.
-            let (near, far) = loss
-                .smoothness_factors
-                .split(&loss.wide_smoothness_parameters);
-            let wide_offsets = (!loss.wide_smoothness_parameters.is_empty())
-                .then(|| random_offsets(rng, centres.len(), loss.wide_smoothness_radius));
-            let settings = |factors: [f64; PARAM_COUNT]| SmoothnessSettings {
-                weight: material_weight as f32,
-                factors: factors.map(|w| w as f32),
-                relative: loss.smoothness_relative,
-                saturation,
-            };
-            let mut value = self.smoothness.forward_backward(
+            self.smoothness.forward_backward(
                 &self.model.material,
                 &centres,
                 &offsets,
-                &settings(near),
+                material_weight,
                 &mut self.grads.material,
-            );
-            if let Some(wide) = &wide_offsets {
-                value += self.smoothness.forward_backward(
-                    &self.model.material,
-                    &centres,
-                    wide,
-                    &settings(far),
-                    &mut self.grads.material,
-                );
-            }
-            value
+            )
         } else {
             0.0
         };
-        let normal_weight = self.normal_smoothness_weight(step);
-        let loss = &self.config.loss;
         let normal = if loss.normal_smoothness > 0.0 {
-            // The normal prior's pairs are the same offsets, scaled to its
-            // own reach (`loss.normal_smoothness_radius`, when set).
-            let scale = if loss.normal_smoothness_radius > 0.0 {
-                (loss.normal_smoothness_radius / radius) as f32
-            } else {
-                1.0
-            };
-            let normal_offsets =
-                normal_smoothness::pair_offsets(&offsets, &normals, loss.normal_difference, scale);
-            let point_weights = (loss.normal_smoothness_relax > 0.0).then(|| {
-                normal_smoothness::relaxed_weights(
-                    &point_rays,
-                    &self.pipeline.colour,
-                    &self.batch.target,
-                    self.rays.saturation,
-                    loss.normal_smoothness_relax as f32,
-                )
-            });
             self.normal_smoothness.forward_backward(
                 &self.model.sdf,
                 &centres,
-                &normal_offsets,
-                loss.normal_difference,
+                &normal_smoothness::pair_offsets(&offsets, &normals),
                 fd_step,
-                normal_weight as f32,
-                point_weights.as_deref(),
+                normal_weight,
                 &mut self.grads.sdf,
             )
         } else {
@@ -835,23 +644,18 @@ impl Trainer {
         let (m, g, gr, a) = (&mut self.model, &self.grads, &self.groups, &mut self.adam);
         a.step(gr.sdf_grid, &mut m.sdf.field.grid.params, &g.sdf.grid, f);
         a.step(gr.sdf_mlp, &mut m.sdf.field.mlp.params, &g.sdf.mlp, f);
-        let (mat, mat_g) = (&mut m.material.params, &g.material.params);
-        a.step(gr.mat_grid, &mut mat.grid.params, &mat_g.grid, f);
-        a.step(gr.mat_mlp, &mut mat.mlp.params, &mat_g.mlp, f);
+        a.step(
+            gr.mat_grid,
+            &mut m.material.grid.params,
+            &g.material.grid,
+            f,
+        );
+        a.step(gr.mat_mlp, &mut m.material.mlp.params, &g.material.mlp, f);
         a.step(gr.amb_grid, &mut m.ambient.grid.params, &g.ambient.grid, f);
         a.step(gr.amb_mlp, &mut m.ambient.mlp.params, &g.ambient.mlp, f);
-        for (groups, field, grads) in [
-            (
-                gr.amb_specular,
-                &mut m.ambient_specular,
-                &g.ambient_specular,
-            ),
-            (gr.metallic, &mut m.material.metallic, &g.material.metallic),
-        ] {
-            if let (Some((grid, mlp)), Some(field), Some(grads)) = (groups, field, grads) {
-                a.step(grid, &mut field.grid.params, &grads.grid, f);
-                a.step(mlp, &mut field.mlp.params, &grads.mlp, f);
-            }
+        if let (Some((grid, mlp)), Some(room), Some(grads)) = (gr.room, &mut m.room, &g.room) {
+            a.step(grid, &mut room.grid.params, &grads.grid, f);
+            a.step(mlp, &mut room.mlp.params, &grads.mlp, f);
         }
         let mut v = [m.sharpness];
         a.step(gr.sharpness, &mut v, &[g.sharpness], f);
@@ -879,12 +683,6 @@ impl Trainer {
         w.set_metadata("occupancy.resolution", &grid.resolution.to_string());
         w.set_metadata("occupancy.band", &format!("{:e}", grid.band));
         w.set_metadata("occupancy.round", &grid.round.to_string());
-        if let Some(snapshot) = &self.metal_snapshot {
-            save_material(snapshot, &mut w, METAL_SNAPSHOT_PREFIX);
-        }
-        if let Some(map) = self.rays.error_map() {
-            w.add("error_map", &[map.values().len()], map.values());
-        }
         w.set_metadata("step", &self.step.to_string());
         w.set_metadata("lr_scale", &format!("{:e}", self.lr_scale));
         w.set_metadata("skipped_steps", &self.skipped_steps.to_string());
@@ -912,18 +710,25 @@ impl Trainer {
                 None => avg.count = 0,
             }
         }
-        // held only while an anchored push runs
-        self.metal_snapshot = if ck.contains(&format!("{METAL_SNAPSHOT_PREFIX}material.grid.table"))
-        {
-            let mut snapshot = self.model.material.clone();
-            load_material(&mut snapshot, &ck, METAL_SNAPSHOT_PREFIX)?;
-            Some(snapshot)
-        } else {
-            None
-        };
-        self.adam
+        // The room's optimiser groups, under their name in the checkpoint.
+        let room = room_name(&ck, "adam.");
+        let groups: Vec<usize> = self
+            .groups
+            .room
+            .into_iter()
+            .flat_map(|(g, m)| [g, m])
+            .collect();
+        for (&g, part) in groups.iter().zip(["grid", "mlp"]) {
+            self.adam.groups[g].name = format!("{room}.{part}");
+        }
+        let loaded = self
+            .adam
             .load_from(&ck, "adam")
-            .with_context(|| format!("{}: optimiser state", path.display()))?;
+            .with_context(|| format!("{}: optimiser state", path.display()));
+        for (&g, part) in groups.iter().zip(["grid", "mlp"]) {
+            self.adam.groups[g].name = format!("{ROOM}.{part}");
+        }
+        loaded?;
         let meta = |key: &str| {
             ck.metadata(key)
                 .with_context(|| format!("{}: missing metadata '{key}'", path.display()))
@@ -936,17 +741,6 @@ impl Trainer {
             self.plan_total_steps(total.parse().context("planned_total_steps")?);
         }
         self.apply_step_schedule();
-        if let Some(map) = self.rays.error_map_mut() {
-            // absent in checkpoints of runs without error-guided draws: the
-            // map keeps its initial estimates
-            if ck.contains("error_map") {
-                let mut values = vec![0.0f32; map.values().len()];
-                ck.read_into("error_map", &[values.len()], &mut values)
-                    .with_context(|| format!("{}: error map", path.display()))?;
-                map.set_values(&values)
-                    .map_err(|e| anyhow::anyhow!("{}: error map: {e}", path.display()))?;
-            }
-        }
         // The occupancy grid as it was (measured at the last refresh step,
         // from the field of that time), so that the run continues exactly.
         let resolution: usize = meta("occupancy.resolution")?
@@ -978,14 +772,35 @@ pub const AVERAGE_PREFIX: &str = "average.";
 /// Checkpoint metadata: how many parameter sets the average holds.
 pub const AVERAGE_COUNT: &str = "average.count";
 
+/// The room's name in checkpoints: its tensors (`room.grid.table`, …) and
+/// optimiser groups (`adam.room.grid.m`, …).
+const ROOM: &str = "room";
+/// The room's name in checkpoints written before issue 48 (it lived in the
+/// model's `ambient_specular` slot).
+const OLD_ROOM: &str = "ambient_specular";
+
+/// The room's name in `ck` among the tensors whose names begin with
+/// `prefix`: [`ROOM`], or [`OLD_ROOM`] in an older checkpoint.
+fn room_name(ck: &Checkpoint, prefix: &str) -> &'static str {
+    let has = |name: &str| {
+        ck.contains(&format!("{prefix}{name}.grid.table"))
+            || ck.contains(&format!("{prefix}{name}.grid.m"))
+    };
+    if !has(ROOM) && has(OLD_ROOM) {
+        OLD_ROOM
+    } else {
+        ROOM
+    }
+}
+
 /// Adds the model's parameters to a checkpoint, each tensor's name after
 /// `prefix` ("" for the live model, [`AVERAGE_PREFIX`] for the average).
 pub fn save_model(model: &Model, w: &mut CheckpointWriter, prefix: &str) {
     model.sdf.save_to(w, &format!("{prefix}sdf"));
-    save_material(&model.material, w, prefix);
+    model.material.save_to(w, &format!("{prefix}material"));
     model.ambient.save_to(w, &format!("{prefix}ambient"));
-    if let Some(f) = &model.ambient_specular {
-        f.save_to(w, &format!("{prefix}ambient_specular"));
+    if let Some(f) = &model.room {
+        f.save_to(w, &format!("{prefix}{ROOM}"));
     }
     w.add(
         &format!("{prefix}scalars"),
@@ -994,52 +809,26 @@ pub fn save_model(model: &Model, w: &mut CheckpointWriter, prefix: &str) {
     );
 }
 
-/// Adds the material field's parameters to a checkpoint, each tensor's
-/// name after `prefix`.
-fn save_material(material: &MaterialField<f32>, w: &mut CheckpointWriter, prefix: &str) {
-    material.params.save_to(w, &format!("{prefix}material"));
-    if let Some(f) = &material.metallic {
-        f.save_to(w, &format!("{prefix}metallic"));
-    }
-}
-
-/// Reads the material field's parameters (those saved with `prefix`).
-fn load_material(
-    material: &mut MaterialField<f32>,
-    ck: &Checkpoint,
-    prefix: &str,
-) -> anyhow::Result<()> {
-    let p = ck.path().display().to_string();
-    material
-        .params
-        .load_from(ck, &format!("{prefix}material"))
-        .with_context(|| format!("{p}: {prefix}material field"))?;
-    if let Some(f) = &mut material.metallic {
-        f.load_from(ck, &format!("{prefix}metallic"))
-            .with_context(|| format!("{p}: {prefix}metallic field"))?;
-    }
-    Ok(())
-}
-
-/// Prefix of the metal anchor's snapshot in a checkpoint.
-const METAL_SNAPSHOT_PREFIX: &str = "metal_snapshot.";
-
 /// Reads the model's parameters (those saved with `prefix`) from a
-/// checkpoint.
+/// checkpoint; the room also under its name of older checkpoints.
 pub fn load_model(model: &mut Model, ck: &Checkpoint, prefix: &str) -> anyhow::Result<()> {
     let p = ck.path().display().to_string();
     model
         .sdf
         .load_from(ck, &format!("{prefix}sdf"))
         .with_context(|| format!("{p}: {prefix}SDF field"))?;
-    load_material(&mut model.material, ck, prefix)?;
+    model
+        .material
+        .load_from(ck, &format!("{prefix}material"))
+        .with_context(|| format!("{p}: {prefix}material field"))?;
     model
         .ambient
         .load_from(ck, &format!("{prefix}ambient"))
         .with_context(|| format!("{p}: {prefix}ambient field"))?;
-    if let Some(f) = &mut model.ambient_specular {
-        f.load_from(ck, &format!("{prefix}ambient_specular"))
-            .with_context(|| format!("{p}: {prefix}ambient specular field"))?;
+    if let Some(f) = &mut model.room {
+        let room = room_name(ck, prefix);
+        f.load_from(ck, &format!("{prefix}{room}"))
+            .with_context(|| format!("{p}: {prefix}room field"))?;
     }
     let mut s = [0.0f32; 2];
     ck.read_into(&format!("{prefix}scalars"), &[2], &mut s)

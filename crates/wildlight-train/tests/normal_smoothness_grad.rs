@@ -1,16 +1,15 @@
-//! The normal smoothness prior, with the first and the second difference of
-//! the normals: its value against a hand computation from the SDF's
-//! finite-difference normals, its parameter gradient against central
-//! finite differences in f64, what each difference costs on a sphere, and
-//! the offsets of its pairs.
+//! The normal smoothness prior, the second difference of the normals: its
+//! value against a hand computation from the SDF's finite-difference
+//! normals, its parameter gradient against central finite differences in
+//! f64, what it costs on a sphere (nothing, where a first difference would
+//! cost), and the offsets of its pairs.
 
 mod common;
 
 use wildlight_fields::{FdScheme, NormalContext};
-use wildlight_train::config::NormalDifference;
 use wildlight_train::model::Model;
 use wildlight_train::normal_smoothness::{
-    HUBER_ETA, NormalSmoothness, pair_offsets, pseudo_huber, relaxed_weights, second_difference,
+    HUBER_ETA, NormalSmoothness, pair_offsets, pseudo_huber, second_difference,
 };
 
 fn tiny_sdf_model() -> Model<f64> {
@@ -37,42 +36,13 @@ const OFFSETS: [[f64; 3]; 4] = [
 const STEP: f64 = 0.02;
 const WEIGHT: f64 = 0.7;
 
-const DIFFERENCES: [NormalDifference; 2] = [NormalDifference::First, NormalDifference::Second];
-
 /// λ · L_normal and (when asked) its gradient.
-fn loss(
-    model: &Model<f64>,
-    difference: NormalDifference,
-    grads: Option<&mut wildlight_fields::FieldGrads<f64>>,
-) -> f64 {
-    weighted_loss(model, difference, None, grads)
-}
-
-/// [`loss`] with a weight per pair.
-fn weighted_loss(
-    model: &Model<f64>,
-    difference: NormalDifference,
-    point_weights: Option<&[f64]>,
-    grads: Option<&mut wildlight_fields::FieldGrads<f64>>,
-) -> f64 {
+fn loss(model: &Model<f64>, grads: Option<&mut wildlight_fields::FieldGrads<f64>>) -> f64 {
     let mut term = NormalSmoothness::<f64>::default();
     let mut scratch = model.sdf.new_grads();
     let g = grads.unwrap_or(&mut scratch);
-    WEIGHT
-        * term.forward_backward(
-            &model.sdf,
-            &CENTRES,
-            &OFFSETS,
-            difference,
-            STEP,
-            WEIGHT,
-            point_weights,
-            g,
-        )
+    WEIGHT * term.forward_backward(&model.sdf, &CENTRES, &OFFSETS, STEP, WEIGHT, g)
 }
-
-/// Weights between 0 and 1 for the four pairs (`loss.normal_smoothness_relax`).
-const PAIR_WEIGHTS: [f64; 4] = [1.0, 0.25, 0.0, 0.6];
 
 fn unit(g: [f64; 3]) -> [f64; 3] {
     let l = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
@@ -93,62 +63,38 @@ fn pseudo_huber_by_hand(d: [f64; 3]) -> f64 {
     (d2 + HUBER_ETA * HUBER_ETA).sqrt() - HUBER_ETA
 }
 
-/// Δ of the difference by hand, from the normals at x − ε, x and x + ε.
-fn difference_by_hand(
-    model: &Model<f64>,
-    c: [f64; 3],
-    e: [f64; 3],
-    which: NormalDifference,
-) -> [f64; 3] {
+/// Δ by hand, from the normals at x − ε, x and x + ε.
+fn difference_by_hand(model: &Model<f64>, c: [f64; 3], e: [f64; 3]) -> [f64; 3] {
     let n0 = normal_at(model, c);
     let n1 = normal_at(model, [0, 1, 2].map(|a| c[a] + e[a]));
-    match which {
-        NormalDifference::First => [0, 1, 2].map(|a| n1[a] - n0[a]),
-        NormalDifference::Second => {
-            let n2 = normal_at(model, [0, 1, 2].map(|a| c[a] - e[a]));
-            let s = [0, 1, 2].map(|a| n1[a] + n2[a] - 2.0 * n0[a]);
-            let sn: f64 = (0..3).map(|a| s[a] * n0[a]).sum();
-            [0, 1, 2].map(|a| s[a] - sn * n0[a])
-        }
-    }
+    let n2 = normal_at(model, [0, 1, 2].map(|a| c[a] - e[a]));
+    let s = [0, 1, 2].map(|a| n1[a] + n2[a] - 2.0 * n0[a]);
+    let sn: f64 = (0..3).map(|a| s[a] * n0[a]).sum();
+    [0, 1, 2].map(|a| s[a] - sn * n0[a])
 }
 
 #[test]
 fn normal_smoothness_is_the_mean_pseudo_huber_difference_of_the_normals() {
     let model = tiny_sdf_model();
-    for which in DIFFERENCES {
-        let by_hand = CENTRES
-            .iter()
-            .zip(&OFFSETS)
-            .map(|(c, e)| pseudo_huber_by_hand(difference_by_hand(&model, *c, *e, which)))
-            .sum::<f64>()
-            / CENTRES.len() as f64;
-        let value = loss(&model, which, None) / WEIGHT;
-        assert!(
-            value > 1e-2,
-            "{which:?}: the normals must turn across the points: {value}"
-        );
-        assert!(
-            (value - by_hand).abs() < 1e-12,
-            "{which:?}: {value} vs {by_hand}"
-        );
+    let by_hand = CENTRES
+        .iter()
+        .zip(&OFFSETS)
+        .map(|(c, e)| pseudo_huber_by_hand(difference_by_hand(&model, *c, *e)))
+        .sum::<f64>()
+        / CENTRES.len() as f64;
+    let value = loss(&model, None) / WEIGHT;
+    assert!(
+        value > 1e-2,
+        "the normals must turn across the points: {value}"
+    );
+    assert!((value - by_hand).abs() < 1e-12, "{value} vs {by_hand}");
 
-        // No offset, no penalty and no gradient.
-        let mut term = NormalSmoothness::<f64>::default();
-        let mut g = model.sdf.new_grads();
-        let zero = term.forward_backward(
-            &model.sdf,
-            &CENTRES,
-            &[[0.0; 3]; 4],
-            which,
-            STEP,
-            1.0,
-            None,
-            &mut g,
-        );
-        assert_eq!(zero, 0.0, "{which:?}");
-        assert!(g.grid.iter().chain(&g.mlp).all(|v| *v == 0.0), "{which:?}");
-    }
+    // No offset, no penalty and no gradient.
+    let mut term = NormalSmoothness::<f64>::default();
+    let mut g = model.sdf.new_grads();
+    let zero = term.forward_backward(&model.sdf, &CENTRES, &[[0.0; 3]; 4], STEP, 1.0, &mut g);
+    assert_eq!(zero, 0.0);
+    assert!(g.grid.iter().chain(&g.mlp).all(|v| *v == 0.0));
 }
 
 /// Along circles of any radius the tangential second difference vanishes
@@ -206,97 +152,20 @@ fn pseudo_huber_is_quadratic_below_eta_and_linear_above() {
 
 #[test]
 fn normal_smoothness_gradient_matches_finite_differences() {
-    for which in DIFFERENCES {
-        let mut model = tiny_sdf_model();
-        let mut grads = model.sdf.new_grads();
-        loss(&model, which, Some(&mut grads));
-        // The normals are central differences of step 0.02, so the loss's
-        // rounding (~1e-16 of the SDF's values) reaches ~1e-10 in its own
-        // central differences: an absolute floor of 1e-5 (tolerance 1e-9).
-        let probed = common::check_field_gradient_with_floor(
-            &mut model,
-            |m| &mut m.sdf.field,
-            &grads,
-            |m| loss(m, which, None),
-            1e-5,
-        );
-        assert!(
-            probed >= 10,
-            "{which:?}: only {probed} parameters had a gradient"
-        );
-    }
-}
-
-/// Weighted pairs: the value is the mean of w_j ρ_j (a pair of weight 0
-/// costs nothing), and the gradient matches central differences.
-#[test]
-fn weighted_pairs_scale_their_penalty_and_its_gradient() {
-    for which in DIFFERENCES {
-        let mut model = tiny_sdf_model();
-        let by_hand = CENTRES
-            .iter()
-            .zip(&OFFSETS)
-            .zip(PAIR_WEIGHTS)
-            .map(|((c, e), w)| w * pseudo_huber_by_hand(difference_by_hand(&model, *c, *e, which)))
-            .sum::<f64>()
-            / CENTRES.len() as f64;
-        let value = weighted_loss(&model, which, Some(&PAIR_WEIGHTS), None) / WEIGHT;
-        assert!(
-            (value - by_hand).abs() < 1e-12,
-            "{which:?}: {value} vs {by_hand}"
-        );
-        let unweighted = loss(&model, which, None) / WEIGHT;
-        assert!(
-            value < unweighted - 1e-3,
-            "{which:?}: {value} vs {unweighted}"
-        );
-
-        let mut grads = model.sdf.new_grads();
-        weighted_loss(&model, which, Some(&PAIR_WEIGHTS), Some(&mut grads));
-        let probed = common::check_field_gradient_with_floor(
-            &mut model,
-            |m| &mut m.sdf.field,
-            &grads,
-            |m| weighted_loss(m, which, Some(&PAIR_WEIGHTS), None),
-            1e-5,
-        );
-        assert!(probed >= 10, "{which:?}: only {probed} probed");
-    }
-}
-
-/// `loss.normal_smoothness_relax`: a ray the model matches keeps weight 1,
-/// one off by e₀ (L1 over the channels) weighs ½, one off by 3 e₀ a tenth,
-/// under the colour loss's saturation rule (a clipped photo is matched by
-/// any prediction at or above the cap; an unclipped one is not).
-#[test]
-fn relaxed_weights_fall_with_the_rays_colour_error() {
-    let colour = [
-        [0.5, 0.4, 0.3],
-        [0.55, 0.4, 0.35],
-        [0.1, 0.1, 0.1],
-        [1.7, 2.0, 1.2],
-        [0.5, 0.4, 1.2],
-    ];
-    let target = [
-        [0.5, 0.4, 0.3],
-        [0.5, 0.4, 0.3],
-        [0.2, 0.2, 0.2],
-        [1.0, 1.0, 1.0],
-        [0.5, 0.4, 0.9],
-    ];
-    // Rays 1 and 2 are off by 0.1 and 0.3. Ray 3 over-shoots a photo that
-    // clips at the cap: saturated, so no error. Ray 4 over-shoots a photo
-    // below the cap by 0.3: counted in full (the prediction is not clipped).
-    let cap = Some(1.0);
-    let w = relaxed_weights(&[2, 0, 1, 3, 4], &colour, &target, cap, 0.1);
-    let expected = [0.1, 1.0, 0.5, 1.0, 0.1];
-    for (got, want) in w.iter().zip(expected) {
-        assert!((got - want).abs() < 1e-5, "{w:?} vs {expected:?}");
-    }
-    // Without a cap (a capture that does not clip) ray 3's error counts:
-    // 0.7 + 1.0 + 0.2 = 1.9, so its weight is 1 / (1 + 19²).
-    let w = relaxed_weights(&[3], &colour, &target, None, 0.1);
-    assert!((w[0] - 1.0 / 362.0).abs() < 1e-6, "{w:?}");
+    let mut model = tiny_sdf_model();
+    let mut grads = model.sdf.new_grads();
+    loss(&model, Some(&mut grads));
+    // The normals are central differences of step 0.02, so the loss's
+    // rounding (~1e-16 of the SDF's values) reaches ~1e-10 in its own
+    // central differences: an absolute floor of 1e-5 (tolerance 1e-9).
+    let probed = common::check_field_gradient_with_floor(
+        &mut model,
+        |m| &mut m.sdf.field,
+        &grads,
+        |m| loss(m, None),
+        1e-5,
+    );
+    assert!(probed >= 10, "only {probed} parameters had a gradient");
 }
 
 /// SecondDifference::backward, the prior's ∂ρ(Δ)/∂n for each of the three
@@ -325,27 +194,24 @@ fn second_difference_backward_matches_finite_differences() {
     }
 }
 
-/// The pairs' offsets: the material prior's offsets times the scale, and,
-/// for the second difference, without their part along the normal.
+/// The pairs' offsets: the material prior's offsets without their part
+/// along the normal.
 #[test]
-fn the_pairs_offsets_are_scaled_and_tangent_for_the_second_difference() {
+fn the_pairs_offsets_are_tangent() {
     let offsets = [[0.01f32, -0.02, 0.015], [0.0, 0.0, 0.02]];
     let s = 1.0 / 3f32.sqrt();
     let normals = [[0.0f32, 0.0, 1.0], [s, s, s]];
-    let first = pair_offsets(&offsets, &normals, NormalDifference::First, 0.5);
-    assert_eq!(first, vec![[0.005, -0.01, 0.0075], [0.0, 0.0, 0.01]]);
-    let second = pair_offsets(&offsets, &normals, NormalDifference::Second, 0.5);
-    assert_eq!(second[0], [0.005, -0.01, 0.0]);
-    // (0, 0, 0.02) less its part along n: 0.02 · (−1/3, −1/3, 2/3), halved
-    let expected = [-0.02 / 6.0, -0.02 / 6.0, 0.02 / 3.0];
+    let tangent = pair_offsets(&offsets, &normals);
+    assert_eq!(tangent[0], [0.01, -0.02, 0.0]);
+    // (0, 0, 0.02) less its part along n: 0.02 · (−1/3, −1/3, 2/3)
+    let expected = [-0.02 / 3.0, -0.02 / 3.0, 0.04 / 3.0];
     for a in 0..3 {
-        assert!((second[1][a] - expected[a]).abs() < 1e-8, "{:?}", second[1]);
+        assert!(
+            (tangent[1][a] - expected[a]).abs() < 1e-8,
+            "{:?}",
+            tangent[1]
+        );
     }
-    let along: f32 = (0..3).map(|a| second[1][a] * normals[1][a]).sum();
+    let along: f32 = (0..3).map(|a| tangent[1][a] * normals[1][a]).sum();
     assert!(along.abs() < 1e-9);
-    // scale 1 leaves the first difference's offsets as they are
-    assert_eq!(
-        pair_offsets(&offsets, &normals, NormalDifference::First, 1.0),
-        offsets.to_vec()
-    );
 }

@@ -5,7 +5,6 @@
 //! is probed.
 
 use wildlight_fields::Interpolation;
-use wildlight_material::METALLIC;
 use wildlight_train::config::{AmbientModel, FieldSize, ModelConfig};
 use wildlight_train::model::Model;
 use wildlight_train::pipeline::{PassSettings, Pipeline, RayInputs};
@@ -81,7 +80,6 @@ fn setup() -> Setup {
             jitter_seed: None,
             for_backward: true,
             alpha_eps: wildlight_render::neus::ALPHA_EPS,
-            metallic_hold: None,
             ambient_flash_gradient: 1.0,
         },
     }
@@ -153,16 +151,10 @@ fn sdf_mlp(m: &mut Model<f64>) -> &mut Vec<f64> {
     &mut m.sdf.field.mlp.params
 }
 fn mat_grid(m: &mut Model<f64>) -> &mut Vec<f64> {
-    &mut m.material.params.grid.params
+    &mut m.material.grid.params
 }
 fn mat_mlp(m: &mut Model<f64>) -> &mut Vec<f64> {
-    &mut m.material.params.mlp.params
-}
-fn metal_grid(m: &mut Model<f64>) -> &mut Vec<f64> {
-    &mut m.material.metallic.as_mut().unwrap().grid.params
-}
-fn metal_mlp(m: &mut Model<f64>) -> &mut Vec<f64> {
-    &mut m.material.metallic.as_mut().unwrap().mlp.params
+    &mut m.material.mlp.params
 }
 fn amb_grid(m: &mut Model<f64>) -> &mut Vec<f64> {
     &mut m.ambient.grid.params
@@ -170,11 +162,11 @@ fn amb_grid(m: &mut Model<f64>) -> &mut Vec<f64> {
 fn amb_mlp(m: &mut Model<f64>) -> &mut Vec<f64> {
     &mut m.ambient.mlp.params
 }
-fn spec_grid(m: &mut Model<f64>) -> &mut Vec<f64> {
-    &mut m.ambient_specular.as_mut().unwrap().grid.params
+fn room_grid(m: &mut Model<f64>) -> &mut Vec<f64> {
+    &mut m.room.as_mut().unwrap().grid.params
 }
-fn spec_mlp(m: &mut Model<f64>) -> &mut Vec<f64> {
-    &mut m.ambient_specular.as_mut().unwrap().mlp.params
+fn room_mlp(m: &mut Model<f64>) -> &mut Vec<f64> {
+    &mut m.room.as_mut().unwrap().mlp.params
 }
 
 /// The default form: the neural ambient with the room of the reflected
@@ -183,20 +175,6 @@ fn spec_mlp(m: &mut Model<f64>) -> &mut Vec<f64> {
 #[test]
 fn whole_pipeline_matches_finite_differences() {
     check_whole_pipeline(&tiny_config());
-}
-
-/// The diffuse-specular ambient term: its two fields and the tints that
-/// carry the ambient photos' gradient to base colour, metallic, dielectric
-/// and clearcoat (with Θ starting mid-range so that every tint matters).
-#[test]
-fn whole_pipeline_with_the_diffuse_specular_ambient_matches_finite_differences() {
-    let config = ModelConfig {
-        ambient_model: AmbientModel::DiffuseSpecular,
-        ambient_specular: tiny(2, 6, 8),
-        init_material: [0.6, 0.4, 0.3, 0.5, 0.5, 0.3, 0.4, 0.5, 0.4],
-        ..tiny_config()
-    };
-    check_whole_pipeline(&config);
 }
 
 /// The plain neural ambient, without the room of the reflected direction.
@@ -209,69 +187,12 @@ fn whole_pipeline_with_the_plain_neural_ambient_matches_finite_differences() {
     check_whole_pipeline(&config);
 }
 
-/// Two spherical-harmonics bands of the reflected direction: the bands
-/// held at zero must pass no gradient to the normals (and so to the SDF).
-#[test]
-fn whole_pipeline_with_two_ambient_sh_bands_matches_finite_differences() {
-    let config = ModelConfig {
-        ambient_sh_bands: 2,
-        ..tiny_config()
-    };
-    check_whole_pipeline(&config);
-}
-
-/// Metallic held at a constant (`optim.metallic_hold`): the colour changes
-/// (the held value is not the field's), and the material field's gradient
-/// has no part through metallic, or the finite differences, which cannot
-/// move the held value, would disagree with it.
-#[test]
-fn whole_pipeline_with_metallic_held_matches_finite_differences() {
-    let config = ModelConfig {
-        init_material: [0.6, 0.4, 0.3, 0.5, 0.5, 0.3, 0.4, 0.5, 0.4],
-        ..tiny_config()
-    };
-    let mut held = setup();
-    held.settings.metallic_hold = Some(0.9);
-    let model = prepared_model(&config);
-    let (free, fixed) = (loss(&model, &setup(), None), loss(&model, &held, None));
-    assert!((free - fixed).abs() > 1e-4, "{free} vs {fixed}");
-    check_whole_pipeline_in(&config, held);
-}
-
-/// Metallic from a field of its own (`model.metallic_field`): the
-/// gradient reaches that field, and none reaches the material network's
-/// unused metallic output (its row of the last layer).
-#[test]
-fn whole_pipeline_with_a_metallic_field_matches_finite_differences() {
-    let config = ModelConfig {
-        init_material: [0.6, 0.4, 0.3, 0.5, 0.5, 0.3, 0.4, 0.5, 0.4],
-        metallic_field: Some(tiny(2, 6, 8)),
-        ..tiny_config()
-    };
-    check_whole_pipeline(&config);
-    let model = prepared_model(&config);
-    let mut grads = model.new_grads();
-    loss(&model, &setup(), Some(&mut grads));
-    let last = *model.material.params.mlp.layers().last().unwrap();
-    let row = last.weight_offset + METALLIC * last.n_in;
-    let unused = &grads.material.params.mlp[row..row + last.n_in];
-    assert!(unused.iter().all(|g| *g == 0.0), "{unused:?}");
-    assert_eq!(grads.material.params.mlp[last.bias_offset + METALLIC], 0.0);
-    let own = grads.material.metallic.as_ref().unwrap();
-    assert!(own.mlp.iter().any(|g| g.abs() > 1e-6));
-}
-
 /// The tiny model with its hash tables moved away from their tiny initial
 /// values, so that their gradients are not negligible.
 fn prepared_model(config: &ModelConfig) -> Model<f64> {
     let mut model = Model::<f64>::new(config, 5).unwrap();
-    for (i, v) in model.material.params.grid.params.iter_mut().enumerate() {
+    for (i, v) in model.material.grid.params.iter_mut().enumerate() {
         *v = 0.3 * ((i as f64 * 0.7).sin());
-    }
-    if let Some(f) = &mut model.material.metallic {
-        for (i, v) in f.grid.params.iter_mut().enumerate() {
-            *v = 0.3 * ((i as f64 * 0.6).cos());
-        }
     }
     for (i, v) in model.ambient.grid.params.iter_mut().enumerate() {
         *v = 0.3 * ((i as f64 * 1.3).cos());
@@ -279,7 +200,7 @@ fn prepared_model(config: &ModelConfig) -> Model<f64> {
     for (i, v) in model.sdf.field.grid.params.iter_mut().enumerate() {
         *v = 0.02 * ((i as f64 * 0.9).sin());
     }
-    if let Some(f) = &mut model.ambient_specular {
+    if let Some(f) = &mut model.room {
         for (i, v) in f.grid.params.iter_mut().enumerate() {
             *v = 0.3 * ((i as f64 * 1.1).sin());
         }
@@ -289,11 +210,7 @@ fn prepared_model(config: &ModelConfig) -> Model<f64> {
 
 /// Checks the analytic gradients against central differences.
 fn check_whole_pipeline(config: &ModelConfig) {
-    check_whole_pipeline_in(config, setup());
-}
-
-/// [`check_whole_pipeline`] for the rays and settings of `s`.
-fn check_whole_pipeline_in(config: &ModelConfig, s: Setup) {
+    let s = setup();
     let model = prepared_model(config);
     let mut grads = model.new_grads();
     let base = loss(&model, &s, Some(&mut grads));
@@ -322,18 +239,17 @@ fn check_whole_pipeline_in(config: &ModelConfig, s: Setup) {
     }
     probe!("sdf.grid", sdf_grid, grads.sdf.grid);
     probe!("sdf.mlp", sdf_mlp, grads.sdf.mlp);
-    probe!("material.grid", mat_grid, grads.material.params.grid);
-    probe!("material.mlp", mat_mlp, grads.material.params.mlp);
-    if let Some(g) = &grads.material.metallic {
-        probe!("metallic.grid", metal_grid, g.grid);
-        probe!("metallic.mlp", metal_mlp, g.mlp);
-        assert!(g.grid.iter().any(|v| v.abs() > 1e-6));
-    }
+    probe!("material.grid", mat_grid, grads.material.grid);
+    probe!("material.mlp", mat_mlp, grads.material.mlp);
     probe!("ambient.grid", amb_grid, grads.ambient.grid);
     probe!("ambient.mlp", amb_mlp, grads.ambient.mlp);
-    if let Some(g) = &grads.ambient_specular {
-        probe!("ambient_specular.grid", spec_grid, g.grid);
-        probe!("ambient_specular.mlp", spec_mlp, g.mlp);
+    assert_eq!(
+        grads.room.is_some(),
+        config.ambient_model == AmbientModel::NeuralRoom
+    );
+    if let Some(g) = &grads.room {
+        probe!("room.grid", room_grid, g.grid);
+        probe!("room.mlp", room_mlp, g.mlp);
         assert!(g.mlp.iter().any(|v| v.abs() > 1e-6));
         assert!(g.grid.iter().any(|v| v.abs() > 1e-6));
     }
@@ -360,14 +276,14 @@ fn check_whole_pipeline_in(config: &ModelConfig, s: Setup) {
     assert!(probed >= 40, "{probed} parameters probed");
     // The gradients are not trivially zero.
     assert!(grads.sharpness.abs() > 1e-6 && grads.log_gain.abs() > 1e-6);
-    assert!(grads.material.params.mlp.iter().any(|g| g.abs() > 1e-6));
+    assert!(grads.material.mlp.iter().any(|g| g.abs() > 1e-6));
 }
 
 /// The ambient fields' gradients of a pass: every parameter of the ambient
 /// network and of its second field (the room of the reflected direction).
 fn ambient_gradients(g: &wildlight_train::model::ModelGrads<f64>) -> Vec<f64> {
     let mut v = [g.ambient.grid.as_slice(), g.ambient.mlp.as_slice()].concat();
-    if let Some(s) = &g.ambient_specular {
+    if let Some(s) = &g.room {
         v.extend_from_slice(&s.grid);
         v.extend_from_slice(&s.mlp);
     }
@@ -375,7 +291,7 @@ fn ambient_gradients(g: &wildlight_train::model::ModelGrads<f64>) -> Vec<f64> {
 }
 
 /// The pass's `ambient_flash_gradient` (the trainer's schedule of
-/// `model.ambient_flash_gradient`) scales what the flash rays (rays 0 and 2
+/// `model.ambient_flash_gradient_late`) scales what the flash rays (rays 0 and 2
 /// of the setup) send to the ambient fields: at 0 these get exactly the
 /// gradient of the no-flash ray alone, at ½ the mean of 0 and 1, while the
 /// flash term's own gradient (the gain) does not change.

@@ -71,7 +71,6 @@ fn fast_sampler_matches_dense_sampling_through_the_fields() {
         jitter_seed: None,
         for_backward: false,
         alpha_eps: 0.0,
-        metallic_hold: None,
         ambient_flash_gradient: 1.0,
     };
 

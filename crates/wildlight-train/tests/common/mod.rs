@@ -2,7 +2,6 @@
 
 use wildlight_fields::{FieldGrads, NeuralField};
 use wildlight_train::config::{FieldSize, ModelConfig};
-use wildlight_train::material_field::MaterialGrads;
 use wildlight_train::model::Model;
 
 /// A model whose three fields have two hash levels (3 and 9 cells), a
@@ -35,30 +34,9 @@ pub fn tiny_config() -> ModelConfig {
 /// values, so Θ varies in space.
 #[allow(dead_code)] // not every test crate checks the material field
 pub fn tiny_material_model() -> Model<f64> {
-    spread_material(tiny_model(11))
-}
-
-/// [`tiny_material_model`] with metallic from a field of its own (the
-/// material field's size).
-#[allow(dead_code)]
-pub fn tiny_model_with_a_metallic_field() -> Model<f64> {
-    let base = tiny_config();
-    let config = ModelConfig {
-        metallic_field: Some(base.material.clone()),
-        ..base
-    };
-    spread_material(Model::<f64>::new(&config, 11).unwrap())
-}
-
-/// Moves the material tables away from their tiny initial values.
-fn spread_material(mut model: Model<f64>) -> Model<f64> {
-    for (i, v) in model.material.params.grid.params.iter_mut().enumerate() {
+    let mut model = tiny_model(11);
+    for (i, v) in model.material.grid.params.iter_mut().enumerate() {
         *v = 0.4 * (i as f64 * 0.77).sin();
-    }
-    if let Some(f) = &mut model.material.metallic {
-        for (i, v) in f.grid.params.iter_mut().enumerate() {
-            *v = 0.4 * (i as f64 * 0.61).cos();
-        }
     }
     model
 }
@@ -66,41 +44,18 @@ fn spread_material(mut model: Model<f64>) -> Model<f64> {
 /// A prior on the material field: its value, filling the gradient when
 /// given one.
 #[allow(dead_code)]
-pub type MaterialPrior = fn(&Model<f64>, Option<&mut MaterialGrads<f64>>) -> f64;
+pub type MaterialPrior = fn(&Model<f64>, Option<&mut FieldGrads<f64>>) -> f64;
 
 /// Checks the material-field gradient of a prior `loss` on
 /// [`tiny_material_model`] against central differences, and that at least
 /// 10 probed parameters had one.
 #[allow(dead_code)]
 pub fn check_material_prior_gradient(loss: MaterialPrior) {
-    check_material_prior_gradient_on(tiny_material_model(), loss);
-}
-
-/// [`check_material_prior_gradient`] on `model`: both of its material
-/// fields when metallic has one of its own.
-#[allow(dead_code)]
-pub fn check_material_prior_gradient_on(mut model: Model<f64>, loss: MaterialPrior) {
+    let mut model = tiny_material_model();
     let mut grads = model.material.new_grads();
     loss(&model, Some(&mut grads));
-    let probed = check_field_gradient(
-        &mut model,
-        |m| &mut m.material.params,
-        &grads.params,
-        |m| loss(m, None),
-    );
-    let metallic_probed = grads.metallic.as_ref().map_or(0, |g| {
-        check_field_gradient(
-            &mut model,
-            |m| m.material.metallic.as_mut().unwrap(),
-            g,
-            |m| loss(m, None),
-        )
-    });
-    assert!(
-        probed + metallic_probed >= 10,
-        "only {} parameters had a gradient",
-        probed + metallic_probed
-    );
+    let probed = check_field_gradient(&mut model, |m| &mut m.material, &grads, |m| loss(m, None));
+    assert!(probed >= 10, "only {probed} parameters had a gradient");
 }
 
 /// Surface-like points of the prior tests.
