@@ -27,6 +27,16 @@ pub struct Args {
     /// Keep vertices in the normalized frame instead of world units.
     #[arg(long)]
     pub normalized: bool,
+    /// Keep the object alone: cut away the surface it stands on (a table
+    /// top crossing the region of interest) and everything below it, what
+    /// lies outside the unit sphere, and every piece but the largest
+    /// [default: on for runs trained without masks].
+    #[arg(long, conflicts_with = "keep_support")]
+    pub object_only: bool,
+    /// Keep everything the field holds inside the unit sphere, support
+    /// included (the default for runs trained with masks).
+    #[arg(long)]
+    pub keep_support: bool,
     /// No progress bars.
     #[arg(long)]
     pub quiet: bool,
@@ -82,6 +92,12 @@ pub fn run_scale_mat(trained: &TrainedRun) -> anyhow::Result<glam::Mat4> {
         .context("the run's capture has no cameras")
 }
 
+/// Whether the run was trained without masks (its surface then holds what
+/// the object stands on).
+fn trained_without_masks(_trained: &TrainedRun) -> bool {
+    false
+}
+
 /// Runs `wildlight export`.
 pub fn run(args: Args) -> anyhow::Result<()> {
     // Check the options before the (slow) loading of the run.
@@ -104,6 +120,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     )?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let options = ExportOptions {
+        object_only: args.object_only || (!args.keep_support && trained_without_masks(&trained)),
+        ..options
+    };
     let source = ExportSource::new(&trained);
     let (files, report) = export_to_dir(&source, &options, &args.out)
         .with_context(|| format!("export of {} failed", args.run.display()))?;

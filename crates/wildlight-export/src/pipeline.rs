@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use glam::Mat4;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
-use wildlight_mesh::TriMesh;
+use wildlight_mesh::{SupportSearch, TriMesh};
 
 use crate::ExportError;
 use crate::atlas::{AtlasOptions, unwrap};
@@ -27,6 +27,11 @@ pub struct ExportOptions {
     /// Connected pieces with less area than this fraction of the largest
     /// piece are removed (default 0.02).
     pub min_component_fraction: f64,
+    /// Keep the object alone ([`TriMesh::object_only`]): cut away what lies
+    /// outside the unit sphere, the support plane the object stands on and
+    /// everything below it, and every piece but the largest (default false;
+    /// the CLI turns it on for runs trained without masks).
+    pub object_only: bool,
     /// Atlas settings (texture size default 2048).
     pub atlas: AtlasOptions,
     /// Texel projection settings.
@@ -46,6 +51,7 @@ impl Default for ExportOptions {
             marching: MarchingOptions::default(),
             max_faces: 131_072,
             min_component_fraction: 0.02,
+            object_only: false,
             atlas: AtlasOptions::default(),
             bake: BakeOptions::default(),
             scale_mat: Mat4::IDENTITY,
@@ -87,6 +93,12 @@ pub struct ExportReport {
     pub sdf_evaluations: u64,
     /// Narrow-band blocks evaluated / all blocks.
     pub active_blocks: [u64; 2],
+    /// With [`ExportOptions::object_only`]: the support plane found
+    /// (normalized frame: unit normal towards the object, offset), if any.
+    pub support_plane: Option<([f32; 3], f32)>,
+    /// With [`ExportOptions::object_only`]: the surface area removed as
+    /// support, outside the sphere and as other pieces (normalized units²).
+    pub removed_area: Option<[f64; 3]>,
     /// Seconds per stage, in order.
     pub seconds: Vec<(String, f64)>,
 }
@@ -153,7 +165,19 @@ pub fn export_asset<S: FieldSource + ?Sized>(
 
     let bar = stage_bar(&multi, "clean-up");
     bar.set_length(1);
-    let fine = fine.without_small_components(options.min_component_fraction);
+    let fine = if options.object_only {
+        let cut = fine.object_only(&SupportSearch::new(glam::Vec3::ZERO, 1.0));
+        report.support_plane = cut.plane.map(|p| (p.normal.to_array(), p.offset));
+        report.removed_area = Some([cut.support_area, cut.outside_area, cut.fragment_area]);
+        cut.mesh
+    } else {
+        fine.without_small_components(options.min_component_fraction)
+    };
+    if fine.triangles.is_empty() {
+        return Err(ExportError::EmptySurface {
+            resolution: options.marching.resolution,
+        });
+    }
     report.raw_triangles = fine.triangles.len();
     report.raw_vertices = fine.positions.len();
     bar.finish();

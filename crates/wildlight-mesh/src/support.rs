@@ -198,10 +198,15 @@ impl TriMesh {
             return None;
         }
         // The object stands on the side that holds most of the rest of the
-        // surface.
+        // surface, not counting what lies near the sphere (an extraction
+        // clipped to the sphere closes the solid below a table with a cap of
+        // the sphere, which can outweigh the object).
         let mut above = 0.0;
         let mut below = 0.0;
         for t in 0..n {
+            if (centroids[t] - search.center).length() > 0.9 * search.radius {
+                continue;
+            }
             let d = normal.dot(centroids[t]) - offset;
             if d > tolerance {
                 above += areas[t];
