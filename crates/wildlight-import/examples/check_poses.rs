@@ -140,6 +140,13 @@ fn main() {
             radius,
             r * sim.scale / radius
         );
+        if let Some(a) = report["roi"]["axes_point"].as_array() {
+            let a = sim.apply(vec3(&Value::Array(a.clone())));
+            println!(
+                "                the optical axes meet {:.4} from the object's centre",
+                (a - object).length()
+            );
+        }
         println!(
             "                the object's sphere inside the region: {}",
             (c_gt - object).length() + radius <= r * sim.scale

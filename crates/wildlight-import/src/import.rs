@@ -230,6 +230,7 @@ fn camera_prior(photos: &[PhotoInfo], width: u32, height: u32, model: &str) -> O
 /// A registered photo, ready to be written.
 struct Registered {
     photo: usize,
+    image_id: u32,
     index: usize,
     distorted: ColmapCamera,
     target: Pinhole,
@@ -531,6 +532,7 @@ pub fn import(
         .resized(opts.max_size);
         registered.push(Registered {
             photo: i,
+            image_id: *id,
             index: registered.len(),
             distorted,
             target,
@@ -860,10 +862,16 @@ pub fn import(
                 k: r.target.k_spec(),
                 r: r.r,
                 t: r.t,
+                points: model
+                    .points
+                    .iter()
+                    .filter(|p| p.track.iter().any(|(id, _)| *id == r.image_id))
+                    .map(|p| p.xyz)
+                    .collect(),
             })
         })
         .collect();
-    let png = render_preview(&views, &roi, &points_all);
+    let png = render_preview(&views, &roi);
     let png_path = staging.dir.join("roi.png");
     png.save(&png_path)
         .map_err(|e| ImportError::InvalidArgument {

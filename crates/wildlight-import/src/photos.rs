@@ -195,7 +195,11 @@ pub fn decode(path: &Path, orientation: u16) -> Result<Decoded, ImportError> {
             img.check_finite(path).map_err(|e| bad(path, e))?;
             (img.width, img.height, Pixels::Linear(img.data))
         }
-        PhotoFormat::Jpeg | PhotoFormat::Png => {
+        PhotoFormat::Jpeg => {
+            let (w, h, rgb) = decode_jpeg(path)?;
+            (w, h, Pixels::Srgb8(rgb))
+        }
+        PhotoFormat::Png => {
             let reader = image::ImageReader::open(path)
                 .map_err(|e| ImportError::io(path, "opening", e))?
                 .with_guessed_format()
@@ -221,6 +225,35 @@ pub fn decode(path: &Path, orientation: u16) -> Result<Decoded, ImportError> {
         return Err(bad(path, "the image is empty"));
     }
     Ok(orient(w, h, pixels, orientation))
+}
+
+/// Decodes a JPEG to 8-bit RGB in strict mode, so that a truncated or
+/// corrupt file is an error rather than an image padded with grey.
+fn decode_jpeg(path: &Path) -> Result<(u32, u32, Vec<u8>), ImportError> {
+    use zune_jpeg::zune_core::bytestream::ZCursor;
+    use zune_jpeg::zune_core::colorspace::ColorSpace;
+    use zune_jpeg::zune_core::options::DecoderOptions;
+    let bytes = std::fs::read(path).map_err(|e| ImportError::io(path, "reading", e))?;
+    let options = DecoderOptions::default()
+        .set_strict_mode(true)
+        .set_max_width(1 << 16)
+        .set_max_height(1 << 16)
+        .jpeg_set_out_colorspace(ColorSpace::RGB);
+    let mut decoder = zune_jpeg::JpegDecoder::new_with_options(ZCursor::new(&bytes[..]), options);
+    let rgb = decoder
+        .decode()
+        .map_err(|e| bad(path, format!("not a readable JPEG ({e})")))?;
+    let info = decoder
+        .info()
+        .ok_or_else(|| bad(path, "not a readable JPEG (no header)"))?;
+    let (w, h) = (info.width as u32, info.height as u32);
+    if rgb.len() != 3 * w as usize * h as usize {
+        return Err(bad(
+            path,
+            format!("decoded {} values for a {w}x{h} RGB image", rgb.len()),
+        ));
+    }
+    Ok((w, h, rgb))
 }
 
 /// The oriented size of a `w`×`h` image (orientations 5..=8 swap them).

@@ -1,6 +1,6 @@
 //! `roi.png`: a few of the capture's images with the region of interest's
-//! outline (yellow) and the sparse points (green inside the sphere, red
-//! outside) drawn on, for checking the import at a glance.
+//! outline (yellow) and the sparse points each image observes (green
+//! inside the sphere, red outside) drawn on, for checking the import at a glance.
 
 use glam::{DMat3, DVec2, DVec3};
 use wildlight_data::RgbImage;
@@ -18,6 +18,8 @@ pub struct PreviewView<'a> {
     pub r: DMat3,
     /// World → camera translation.
     pub t: DVec3,
+    /// The sparse points this image observes.
+    pub points: Vec<DVec3>,
 }
 
 /// Width of one tile of the grid.
@@ -66,7 +68,7 @@ impl Canvas {
 
 /// Draws one tile: the image scaled to [`TILE_WIDTH`], the points and the
 /// sphere's outline.
-fn tile(view: &PreviewView<'_>, roi: &Roi, points: &[DVec3]) -> Canvas {
+fn tile(view: &PreviewView<'_>, roi: &Roi) -> Canvas {
     let img = view.image;
     let s = TILE_WIDTH as f64 / img.width as f64;
     let width = TILE_WIDTH;
@@ -89,7 +91,7 @@ fn tile(view: &PreviewView<'_>, roi: &Roi, points: &[DVec3]) -> Canvas {
         }
     }
     let to_tile = |p: DVec2| (p + 0.5) * s - 0.5;
-    for p in points {
+    for p in &view.points {
         if let Some(q) = project(view, *p) {
             let inside = (*p - roi.center).length() <= roi.radius;
             let colour = if inside { [40, 230, 60] } else { [235, 40, 40] };
@@ -121,8 +123,8 @@ fn tile(view: &PreviewView<'_>, roi: &Roi, points: &[DVec3]) -> Canvas {
 }
 
 /// The grid of tiles (two columns) as an 8-bit RGB image.
-pub fn render_preview(views: &[PreviewView<'_>], roi: &Roi, points: &[DVec3]) -> image::RgbImage {
-    let tiles: Vec<Canvas> = views.iter().map(|v| tile(v, roi, points)).collect();
+pub fn render_preview(views: &[PreviewView<'_>], roi: &Roi) -> image::RgbImage {
+    let tiles: Vec<Canvas> = views.iter().map(|v| tile(v, roi)).collect();
     let cols = tiles.len().clamp(1, 2) as u32;
     let rows = (tiles.len() as u32).div_ceil(cols).max(1);
     let th = tiles.iter().map(|t| t.height).max().unwrap_or(1);

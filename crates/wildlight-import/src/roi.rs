@@ -7,11 +7,14 @@
 //!    in the photos has a radius of at most D · sin(φ), with D the median
 //!    camera distance and φ the half field of view across the image's
 //!    short side.
-//! 3. The sparse points within that bound (seen by ≥ 3 photos, the far
-//!    background left out) refine it: the centre moves to their trimmed
-//!    middle (5th–95th percentile box, the move capped at a quarter of the
-//!    bound), and the radius covers 95 % of them with 10 % to spare,
-//!    never more than the bound.
+//! 3. The sparse points within that bound refine it. When most of them
+//!    lie on one plane (the table or floor the object stands on: RANSAC),
+//!    the plane's points and those beyond it are left out, so that what
+//!    remains is the object. The centre moves towards the median of the
+//!    remaining points (by at most a tenth of the bound: the axes are
+//!    usually the better guess, the points correct a photographer who aimed
+//!    off), and the radius covers 95 % of them with 15 % to spare, between
+//!    half the bound and the bound.
 //! 4. The radius stays well inside the nearest camera: at most
 //!    [`MAX_RADIUS_OF_NEAREST`] of its distance, so every camera is at
 //!    least 1.25 radii from the centre (SPEC §6's background model needs
@@ -133,23 +136,21 @@ pub fn estimate_roi(cameras: &[RoiCamera], points: &[DVec3]) -> Option<RoiEstima
             .filter(|p| (*p - c).length() <= r)
             .collect()
     };
+    let near_axes = near(axes_point, framing_radius);
+    let object = off_plane(&near_axes, cameras, 0.02 * framing_radius);
     let mut center = axes_point;
-    let mut used = near(center, framing_radius);
-    if used.len() >= 10 {
-        let mid = |f: fn(&DVec3) -> f64| {
-            let mut v: Vec<f64> = used.iter().map(f).collect();
-            0.5 * (percentile(&mut v, 0.05) + percentile(&mut v, 0.95))
-        };
-        let box_mid = DVec3::new(mid(|p| p.x), mid(|p| p.y), mid(|p| p.z));
-        let shift = box_mid - axes_point;
-        let cap = 0.25 * framing_radius;
-        center = axes_point + shift.clamp_length_max(cap);
-        used = near(center, framing_radius);
-    }
     let mut radius = framing_radius;
-    if used.len() >= 10 {
-        let mut d: Vec<f64> = used.iter().map(|p| (*p - center).length()).collect();
-        radius = (1.1 * percentile(&mut d, 0.95)).min(framing_radius);
+    let mut used = 0;
+    if object.len() >= 10 {
+        let med = DVec3::new(
+            median(object.iter().map(|p| p.x).collect()),
+            median(object.iter().map(|p| p.y).collect()),
+            median(object.iter().map(|p| p.z).collect()),
+        );
+        center = axes_point + (med - axes_point).clamp_length_max(0.1 * framing_radius);
+        let mut d: Vec<f64> = object.iter().map(|p| (*p - center).length()).collect();
+        radius = (1.15 * percentile(&mut d, 0.95)).clamp(0.5 * framing_radius, framing_radius);
+        used = object.len();
     }
     let nearest = dist(center).fold(f64::INFINITY, f64::min);
     radius = radius.min(MAX_RADIUS_OF_NEAREST * nearest);
@@ -160,9 +161,62 @@ pub fn estimate_roi(cameras: &[RoiCamera], points: &[DVec3]) -> Option<RoiEstima
         roi: Roi { center, radius },
         axes_point,
         framing_radius,
-        points_used: used.len(),
+        points_used: used,
         nearest_camera: nearest / radius,
     })
+}
+
+/// The points of `points` that are not on a dominant plane: when a plane
+/// (RANSAC, inlier distance `tolerance`) holds at least 40 % of them, its
+/// inliers and the points beyond it (on the side away from most cameras)
+/// are left out. Deterministic (a fixed pseudo-random sequence).
+pub fn off_plane(points: &[DVec3], cameras: &[RoiCamera], tolerance: f64) -> Vec<DVec3> {
+    let n = points.len();
+    if n < 20 {
+        return points.to_vec();
+    }
+    let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut next = |m: usize| {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        ((state >> 33) % m as u64) as usize
+    };
+    let mut best: Option<(usize, DVec3, f64)> = None;
+    for _ in 0..300 {
+        let (a, b, c) = (points[next(n)], points[next(n)], points[next(n)]);
+        let Some(normal) = (b - a).cross(c - a).try_normalize() else {
+            continue;
+        };
+        let offset = normal.dot(a);
+        let count = points
+            .iter()
+            .filter(|p| (normal.dot(**p) - offset).abs() <= tolerance)
+            .count();
+        if best.is_none_or(|(k, _, _)| count > k) {
+            best = Some((count, normal, offset));
+        }
+    }
+    let Some((count, mut normal, mut offset)) = best else {
+        return points.to_vec();
+    };
+    if count * 10 < n * 4 {
+        return points.to_vec();
+    }
+    // orient the normal towards the cameras
+    let above = cameras
+        .iter()
+        .filter(|c| normal.dot(c.center) > offset)
+        .count();
+    if above * 2 < cameras.len() {
+        normal = -normal;
+        offset = -offset;
+    }
+    points
+        .iter()
+        .copied()
+        .filter(|p| normal.dot(*p) - offset > tolerance)
+        .collect()
 }
 
 /// The cameras (by position in `centers`) at or inside the sphere, with

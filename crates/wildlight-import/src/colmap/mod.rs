@@ -5,4 +5,4 @@ pub mod model;
 pub mod runner;
 
 pub use model::{CameraModel, ColmapCamera, ColmapImage, ColmapModel, ColmapPoint};
-pub use runner::{ColmapRun, ColmapSettings, find_colmap, run_colmap};
+pub use runner::{ColmapRun, ColmapSettings, find_colmap, find_colmap_in, run_colmap};
