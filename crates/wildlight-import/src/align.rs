@@ -119,6 +119,29 @@ pub fn umeyama(a: &[DVec3], b: &[DVec3]) -> Option<Similarity> {
     })
 }
 
+/// The world rotation that best maps the orientations of one set of
+/// cameras onto another's: for world → camera rotations `est` and `truth`
+/// of the same cameras, R with truthₖ · R ≈ estₖ (the quaternion mean of
+/// truthₖᵀ · estₖ). Aligning rotations by the orientations themselves is
+/// better conditioned than by the centres when the cameras lie on a short
+/// arc.
+pub fn rotation_alignment(est: &[DMat3], truth: &[DMat3]) -> Option<DMat3> {
+    let mut sum = glam::DVec4::ZERO;
+    let mut first: Option<glam::DQuat> = None;
+    for (e, t) in est.iter().zip(truth) {
+        let q = glam::DQuat::from_mat3(&(t.transpose() * *e)).normalize();
+        let q0 = *first.get_or_insert(q);
+        let v = glam::DVec4::from(q);
+        sum += if v.dot(glam::DVec4::from(q0)) < 0.0 {
+            -v
+        } else {
+            v
+        };
+    }
+    let q = glam::DQuat::from_vec4(sum.try_normalize()?);
+    Some(DMat3::from_quat(q))
+}
+
 /// The angle of the rotation r_a⁻¹ r_b, in degrees.
 pub fn rotation_angle_deg(r: DMat3) -> f64 {
     let cos = ((r.x_axis.x + r.y_axis.y + r.z_axis.z - 1.0) / 2.0).clamp(-1.0, 1.0);
@@ -148,5 +171,14 @@ mod tests {
         assert!((s.scale - 3.5).abs() < 1e-9, "{}", s.scale);
         assert!(rotation_angle_deg(s.rotation.transpose() * rot) < 1e-6);
         assert!((s.translation - truth.translation).length() < 1e-8);
+        // orientations: est = truth · R
+        let cams: Vec<DMat3> = (0..5)
+            .map(|k| {
+                DMat3::from_axis_angle(DVec3::new(k as f64, 1.0, 0.5).normalize(), 0.3 * k as f64)
+            })
+            .collect();
+        let est: Vec<DMat3> = cams.iter().map(|c| *c * rot.transpose()).collect();
+        let r = rotation_alignment(&est, &cams).unwrap();
+        assert!(rotation_angle_deg(r * rot) < 1e-6);
     }
 }

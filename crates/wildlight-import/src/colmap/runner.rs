@@ -157,8 +157,15 @@ pub fn run_colmap(
     args.extend(["--image_path".into(), p(images)]);
     args.extend(["--output_path".into(), p(&sparse)]);
     args.extend(settings.mapper.iter().cloned());
-    stage("mapper", "camera poses and sparse points", args)?;
-
+    match stage("mapper", "camera poses and sparse points", args) {
+        // COLMAP 3.8 exits with an error when it finds no initial pair.
+        Err(ImportError::ColmapFailed { .. }) if largest_model(&sparse).is_err() => {
+            return Err(ImportError::NoModel {
+                path: sparse.clone(),
+            });
+        }
+        r => r?,
+    }
     let (model_dir, model_count) = largest_model(&sparse)?;
 
     let args = vec![
