@@ -332,3 +332,92 @@ fn colmap_not_installed() {
     assert!(matches!(err, ImportError::ColmapMissing));
     assert!(err.to_string().contains("apt-get install colmap"), "{err}");
 }
+
+#[test]
+fn exr_photos_pass_through_as_linear() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, sparse) = setup(dir.path());
+    let photos = dir.path().join("exr");
+    std::fs::create_dir(&photos).unwrap();
+    let value = |k: usize, x: u32, y: u32, c: usize| {
+        0.05 + 0.1 * k as f32 + 0.01 * x as f32 + 0.002 * y as f32 + 0.3 * c as f32
+    };
+    for k in 0..N {
+        let mut img = wildlight_data::RgbImage::new(W, H);
+        for y in 0..H {
+            for x in 0..W {
+                img.set(x, y, [0, 1, 2].map(|c| value(k, x, y, c)));
+            }
+        }
+        wildlight_data::exr_io::write_exr_rgb(&photos.join(format!("IMG_{k:04}.exr")), &img)
+            .unwrap();
+    }
+    let mut opts = ImportOptions::new(&photos, dir.path().join("capture"));
+    opts.colmap_model = Some(sparse);
+    // EXR has no EXIF: the labels come from the options
+    assert!(matches!(
+        import(&opts, &quiet).unwrap_err(),
+        ImportError::NoFlashInfo { count: 8, .. }
+    ));
+    opts.flash = Some("IMG_000[0246].exr".into());
+    opts.no_flash = Some("IMG_000[1357].exr".into());
+    let report = import(&opts, &quiet).unwrap();
+    assert_eq!(report.flash_count, 4);
+    assert!(
+        report
+            .photos
+            .iter()
+            .all(|p| p.exposure_scale == 1.0 && p.max_intensity.is_none())
+    );
+    assert_eq!(report.max_intensity, None);
+    let data = Dataset::load(&opts.out, &LoadOptions::default()).unwrap();
+    assert_eq!(data.saturation, None);
+    for (k, view) in data.views.iter().enumerate() {
+        assert_eq!(view.saturation, None);
+        for (x, y) in [(0, 0), (17, 31), (63, 47)] {
+            let got = view.image.get(x, y);
+            for c in 0..3 {
+                assert!((got[c] - value(k, x, y, c)).abs() < 1e-4, "{got:?}");
+            }
+        }
+    }
+}
+
+#[test]
+fn flash_energy_from_the_brightness_difference() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut opts = options(dir.path());
+    // uniform grey photos: code 150 with the flash, 100 without, one exposure
+    for k in 0..N {
+        let code = if k % 2 == 0 { 150 } else { 100 };
+        write_jpeg(
+            &opts.photos.join(format!("IMG_{k:04}.jpg")),
+            &image::RgbImage::from_pixel(W, H, image::Rgb([code; 3])),
+            Some(&Tags::phone(k % 2 == 0, 60, 100)),
+        );
+    }
+    opts.roi = Some(Roi {
+        center: CENTER,
+        radius: 1.5,
+    });
+    let report = import(&opts, &quiet).unwrap();
+    // the object's pixel ≈ E · (0.5 / π) / d² with d the distance (in
+    // radii) from the camera to a surface 0.6 radii in front of the centre
+    let d = 3.0 * 1.16f64.sqrt() / 1.5 - 0.6;
+    let lin = |c: f32| wildlight_import::linear::srgb_to_linear(c / 255.0) as f64;
+    let expected = (lin(150.0) - lin(100.0)) * d * d * std::f64::consts::PI / 0.5;
+    assert!(
+        (report.light_energy / expected - 1.0).abs() < 0.01,
+        "{} against {expected}",
+        report.light_energy
+    );
+    let data = Dataset::load(&opts.out, &LoadOptions::default()).unwrap();
+    for view in &data.views {
+        let e = view.camera.light_energy;
+        if view.camera.flash() {
+            assert_eq!(e, [report.light_energy; 3]);
+        } else {
+            assert_eq!(e, [0.0; 3]);
+        }
+    }
+}
