@@ -29,6 +29,8 @@ struct Cli {
 enum Command {
     /// Synthesize the default capture, reconstruct it, export it and print the metrics.
     Demo(cli::demo::Args),
+    /// Turn a folder of photos into a capture: COLMAP poses, linear images, flash labels.
+    Import(cli::import::Args),
     /// Describe a dataset: images, flash, cameras, masks, and warnings.
     Info(cli::info::Args),
     /// Evaluate the material model (SPEC section 3) on JSON lines, or plot a lobe.
@@ -65,6 +67,7 @@ fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(a) => cli::demo::run(a),
+        Command::Import(a) => cli::import::run(a),
         Command::Info(a) => cli::info::run(a),
         Command::Brdf(a) => cli::brdf::run(a),
         Command::Synth(a) => cli::synth::run(a),

@@ -5,6 +5,7 @@ pub mod brdf;
 pub mod demo;
 pub mod eval;
 pub mod export;
+pub mod import;
 pub mod info;
 pub mod render;
 pub mod synth;

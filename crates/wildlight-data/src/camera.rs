@@ -252,6 +252,7 @@ impl Camera {
             world_mat: self.world_mat,
             scale_mat: self.scale_mat,
             light_energy: self.light_energy,
+            max_intensity: None,
         }
     }
 

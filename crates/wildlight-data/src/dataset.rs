@@ -86,6 +86,12 @@ pub struct View {
     pub mask: Option<Mask>,
     /// The file the image came from (`images.npy` for packed data).
     pub image_path: PathBuf,
+    /// This view's saturation cap (SPEC §4, §5): the image's own
+    /// `max_intensity_i` when the npz has one (captures from `wildlight
+    /// import`, whose photos clip at different levels after exposure
+    /// scaling), else the dataset's [`Dataset::saturation`]; a
+    /// `saturation_override` applies to every view. `None` = no cap.
+    pub saturation: Option<f32>,
 }
 
 /// A loaded dataset folder.
@@ -95,7 +101,8 @@ pub struct Dataset {
     pub root: PathBuf,
     /// The views, sorted by camera index.
     pub views: Vec<View>,
-    /// Saturation cap (SPEC §4, §5); `None` = no cap.
+    /// The global saturation cap (SPEC §4, §5); `None` = no cap. Views may
+    /// have their own ([`View::saturation`], [`Dataset::saturation_of`]).
     pub saturation: Option<f32>,
     /// The format the images were read from.
     pub source: ImageSource,
@@ -402,6 +409,7 @@ impl Dataset {
                 image,
                 mask,
                 image_path,
+                saturation: None,
             });
         }
         let saturation = match opts.saturation_override {
@@ -416,6 +424,15 @@ impl Dataset {
                 }),
             },
         };
+        for (view, arrays) in views.iter_mut().zip(&cams.cameras) {
+            // Per-image caps apply to image files (images.npy is rescaled to cap 5).
+            let own = arrays.max_intensity.filter(|_| source != ImageSource::Npy);
+            view.saturation = match (opts.saturation_override, own) {
+                (Some(s), _) => s,
+                (None, Some(m)) => Some(m as f32),
+                (None, None) => saturation,
+            };
+        }
         let val_dir = dir.join("val");
         let val = if opts.load_val && val_dir.is_dir() {
             let val_opts = LoadOptions {
@@ -482,6 +499,13 @@ impl Dataset {
                 })
             })
             .collect()
+    }
+
+    /// The saturation cap of view `view` (a position in [`Dataset::views`]):
+    /// its own `max_intensity_i` when the capture has one, else the global
+    /// [`Dataset::saturation`]. Same as `self.views[view].saturation`.
+    pub fn saturation_of(&self, view: usize) -> Option<f32> {
+        self.views[view].saturation
     }
 
     /// Image width (all views share it).

@@ -2,8 +2,11 @@
 //!
 //! For each image index `i` the archive holds `world_mat_i` (4×4 or 3×4),
 //! `scale_mat_i` (4×4, or 3×4 with the implied last row `0 0 0 1`) and
-//! optionally `light_energy_i` (3 values; missing = flash off), plus an
-//! optional scalar `max_intensity`. Arrays may be float32 or float64 (integer
+//! optionally `light_energy_i` (3 values; missing = flash off) and
+//! `max_intensity_i` (a scalar: image i's own saturation cap, written by
+//! `wildlight import` because exposure scaling gives every photo its own
+//! clip level; missing = the global cap), plus an optional scalar
+//! `max_intensity` (the global cap, used for every image without its own). Arrays may be float32 or float64 (integer
 //! arrays are accepted too), in C or Fortran order. Other keys (for example
 //! NeuS's `world_mat_inv_i`) are ignored.
 
@@ -29,6 +32,8 @@ pub struct CameraArrays {
     pub scale_mat: DMat4,
     /// `light_energy_i` in normalized-frame units; zeros when the key is missing.
     pub light_energy: [f64; 3],
+    /// `max_intensity_i`: this image's own saturation cap, when the key is present.
+    pub max_intensity: Option<f64>,
 }
 
 /// Everything `cameras_sphere.npz` holds that this crate uses.
@@ -158,6 +163,19 @@ fn read_scalar(npz: &mut Npz, path: &Path, key: &str) -> Result<f64, DataError> 
     }
 }
 
+/// Reads a scalar that must be positive (a saturation cap).
+fn read_positive(npz: &mut Npz, path: &Path, key: &str) -> Result<f64, DataError> {
+    let m = read_scalar(npz, path, key)?;
+    if m <= 0.0 {
+        return Err(DataError::BadValue {
+            path: path.to_path_buf(),
+            key: key.to_owned(),
+            problem: format!("must be positive, found {m}"),
+        });
+    }
+    Ok(m)
+}
+
 /// Opens an npz archive and lists its keys (without the `.npy` suffix).
 fn open(path: &Path) -> Result<(Npz, Vec<String>), DataError> {
     let file = match File::open(path) {
@@ -257,27 +275,25 @@ pub fn read_cameras_npz(path: &Path) -> Result<CamerasNpz, DataError> {
                 problem: format!("negative flash energy {light_energy:?}"),
             });
         }
+        let cap_key = format!("max_intensity_{index}");
+        let max_intensity = if has(&cap_key) {
+            Some(read_positive(&mut npz, path, &cap_key)?)
+        } else {
+            None
+        };
         cameras.push(CameraArrays {
             index,
             world_mat,
             scale_mat,
             light_energy,
+            max_intensity,
         });
     }
     let max_intensity = if has("max_intensity") {
-        Some(read_scalar(&mut npz, path, "max_intensity")?)
+        Some(read_positive(&mut npz, path, "max_intensity")?)
     } else {
         None
     };
-    if let Some(m) = max_intensity
-        && m <= 0.0
-    {
-        return Err(DataError::BadValue {
-            path: path.to_path_buf(),
-            key: "max_intensity".into(),
-            problem: format!("must be positive, found {m}"),
-        });
-    }
     Ok(CamerasNpz {
         path: path.to_path_buf(),
         cameras,
@@ -286,8 +302,8 @@ pub fn read_cameras_npz(path: &Path) -> Result<CamerasNpz, DataError> {
 }
 
 /// Writes `cameras_sphere.npz` atomically: `world_mat_i` and `scale_mat_i`
-/// as 4×4 float64, `light_energy_i` as (3,) float64, and `max_intensity`
-/// when given. Readable by numpy (`np.load`) and by [`read_cameras_npz`].
+/// as 4×4 float64, `light_energy_i` as (3,) float64, `max_intensity_i` for
+/// the cameras that have their own cap, and `max_intensity` when given. Readable by numpy (`np.load`) and by [`read_cameras_npz`].
 pub fn write_cameras_npz(
     path: &Path,
     cameras: &[CameraArrays],
@@ -318,6 +334,11 @@ pub fn write_cameras_npz(
             let key = format!("light_energy_{}", cam.index);
             npz.add_array(key.as_str(), &energy)
                 .map_err(|e| err(&key, e))?;
+            if let Some(m) = cam.max_intensity {
+                let key = format!("max_intensity_{}", cam.index);
+                npz.add_array(key.as_str(), &ndarray::arr0(m))
+                    .map_err(|e| err(&key, e))?;
+            }
         }
         if let Some(m) = max_intensity {
             npz.add_array("max_intensity", &ndarray::arr0(m))
