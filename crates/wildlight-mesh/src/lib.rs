@@ -10,7 +10,6 @@
 //! mesh.write("copy.obj").unwrap();
 //! ```
 
-mod atomic;
 mod components;
 mod error;
 pub mod obj;
