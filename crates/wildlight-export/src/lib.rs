@@ -28,7 +28,6 @@ pub mod roundtrip;
 pub mod simplify;
 pub mod source;
 pub mod textures;
-pub mod view_maps;
 
 pub use atlas::{AtlasOptions, TexturedMesh};
 pub use bake::{BakeOptions, MaterialTextures};
@@ -47,4 +46,6 @@ pub use roundtrip::{
     project_to_level_set,
 };
 pub use source::{AnalyticSource, FieldSource, MAX_BATCH};
-pub use view_maps::ViewMaps;
+/// The maps [`AssetTracer::render_view`] returns (defined with the data
+/// layout, in `wildlight-data`).
+pub use wildlight_data::ViewMaps;
