@@ -15,7 +15,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use wildlight_data::{Camera, Dataset};
 use wildlight_export::{AssetTracer, FlashSettings, LightingSettings, read_glb};
-use wildlight_synth::EnvMap;
+use wildlight_pathtrace::EnvMap;
 use wildlight_train::inference::{RenderedView, TrainedRun, render_views_to_dir, write_view_maps};
 
 /// Which cameras to render.

@@ -50,12 +50,21 @@ where
     result
 }
 
+/// Writes `path` atomically as [`write_atomically`] does, with `fill`
+/// writing through plain I/O: its errors are reported as writing the
+/// temporary file.
+pub fn write_io_atomically<F>(path: &Path, fill: F) -> Result<(), DataError>
+where
+    F: FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
+{
+    write_atomically(path, |w| {
+        fill(w).map_err(|e| DataError::io(temp_path(path), "writing", e))
+    })
+}
+
 /// Writes `bytes` to `path` atomically.
 pub fn write_bytes_atomically(path: &Path, bytes: &[u8]) -> Result<(), DataError> {
-    write_atomically(path, |w| {
-        w.write_all(bytes)
-            .map_err(|e| DataError::io(temp_path(path), "writing", e))
-    })
+    write_io_atomically(path, |w| w.write_all(bytes))
 }
 
 #[cfg(test)]

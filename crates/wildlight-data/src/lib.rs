@@ -13,6 +13,9 @@
 //! atomically; cameras for it come from [`Camera::look_at`] or
 //! [`Camera::from_krt`] with [`camera::intrinsics_from_fov_x`].
 //!
+//! Rendering: [`ViewMaps`], every map a renderer produces for one view
+//! (a trained run's or an exported asset's), in one layout.
+//!
 //! Every error is a [`DataError`] naming the file (and the npz key or the
 //! pixel) and the problem.
 
@@ -28,6 +31,7 @@ pub mod info;
 pub mod npz;
 pub mod png_io;
 pub mod ray;
+pub mod view_maps;
 pub mod writer;
 
 pub use camera::Camera;
@@ -37,4 +41,5 @@ pub use image::{Mask, RgbImage};
 pub use info::DatasetInfo;
 pub use npz::{CameraArrays, CamerasNpz};
 pub use ray::Ray;
+pub use view_maps::ViewMaps;
 pub use writer::DatasetWriter;

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 /// Everything that can go wrong while exporting or reading an asset.
 #[derive(Debug, thiserror::Error)]
 pub enum ExportError {
-    /// A file could not be created, written, renamed or read.
+    /// A file or folder could not be created or read.
     #[error("{path}: {source}")]
     Io {
         /// The file concerned.
@@ -14,6 +14,10 @@ pub enum ExportError {
         #[source]
         source: std::io::Error,
     },
+    /// A file could not be written (its temporary file created, written,
+    /// synced or renamed onto it).
+    #[error(transparent)]
+    Write(#[from] wildlight_data::DataError),
     /// A mesh file could not be written.
     #[error(transparent)]
     Mesh(#[from] wildlight_mesh::MeshError),

@@ -11,6 +11,7 @@ use std::path::Path;
 
 use glam::{Vec2, Vec3, Vec4};
 use serde_json::{Value, json};
+use wildlight_data::atomic::write_bytes_atomically;
 
 use crate::ExportError;
 use crate::atlas::TexturedMesh;
@@ -223,7 +224,8 @@ pub fn encode_glb(asset: &Asset) -> Result<Vec<u8>, ExportError> {
 /// Writes `asset` to `path` as a .glb, atomically.
 pub fn write_glb(asset: &Asset, path: &Path) -> Result<(), ExportError> {
     let bytes = encode_glb(asset)?;
-    crate::write_file_atomically(path, &bytes)
+    write_bytes_atomically(path, &bytes)?;
+    Ok(())
 }
 
 fn u32_at(bytes: &[u8], offset: usize) -> Option<u32> {

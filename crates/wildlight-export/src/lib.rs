@@ -28,7 +28,6 @@ pub mod roundtrip;
 pub mod simplify;
 pub mod source;
 pub mod textures;
-pub mod view_maps;
 
 pub use atlas::{AtlasOptions, TexturedMesh};
 pub use bake::{BakeOptions, MaterialTextures};
@@ -47,30 +46,6 @@ pub use roundtrip::{
     project_to_level_set,
 };
 pub use source::{AnalyticSource, FieldSource, MAX_BATCH};
-pub use view_maps::ViewMaps;
-
-use std::io::Write;
-use std::path::Path;
-
-/// Writes `bytes` to `path` atomically: `path.tmp` in the same folder,
-/// synced, then renamed over `path` (removed again on failure).
-pub(crate) fn write_file_atomically(path: &Path, bytes: &[u8]) -> Result<(), ExportError> {
-    let mut name = path
-        .file_name()
-        .map(|n| n.to_os_string())
-        .unwrap_or_default();
-    name.push(".tmp");
-    let tmp = path.with_file_name(name);
-    let result = (|| {
-        let mut file = std::fs::File::create(&tmp)?;
-        file.write_all(bytes)?;
-        file.sync_all()?;
-        drop(file);
-        std::fs::rename(&tmp, path)
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(ExportError::io(path, e));
-    }
-    Ok(())
-}
+/// The maps [`AssetTracer::render_view`] returns (defined with the data
+/// layout, in `wildlight-data`).
+pub use wildlight_data::ViewMaps;

@@ -12,6 +12,8 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use wildlight_data::atomic::write_bytes_atomically;
+
 use crate::ExportError;
 use crate::gltf::Asset;
 use crate::textures::{OBJ_MAPS, encode_png};
@@ -69,11 +71,12 @@ pub fn write_obj_bundle(asset: &Asset, dir: &Path, stem: &str) -> Result<(), Exp
     let mtl_name = format!("{stem}.mtl");
     for (name, kind) in OBJ_MAPS {
         let png = encode_png(&asset.textures, kind)?;
-        crate::write_file_atomically(&dir.join(name), &png)?;
+        write_bytes_atomically(&dir.join(name), &png)?;
     }
-    crate::write_file_atomically(&dir.join(&mtl_name), mtl_text().as_bytes())?;
-    crate::write_file_atomically(
+    write_bytes_atomically(&dir.join(&mtl_name), mtl_text().as_bytes())?;
+    write_bytes_atomically(
         &dir.join(format!("{stem}.obj")),
         obj_text(asset, &mtl_name).as_bytes(),
-    )
+    )?;
+    Ok(())
 }

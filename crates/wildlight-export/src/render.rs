@@ -1,20 +1,19 @@
 //! Rendering an exported asset with a capture's cameras — its flash term
 //! (SPEC §2) and, optionally, an environment light estimated like the
-//! synthetic captures' ([`wildlight_synth::ambient_radiance`]) — with the
+//! synthetic captures' ([`wildlight_pathtrace::ambient_radiance`]) — with the
 //! textures sampled bilinearly at each hit's UV and the normal map applied;
 //! and ray tracing the flash term of a [`FieldSource`] (sphere tracing of
 //! its SDF). Comparing the two flash terms measures an export's round trip.
 
 use glam::{DVec3, Mat3, Mat4, Vec2, Vec3};
-use rand_pcg::Pcg32;
 use rayon::prelude::*;
-use wildlight_data::{Camera, RgbImage};
+use wildlight_data::{Camera, RgbImage, ViewMaps};
 use wildlight_material::{BrdfSettings, PARAM_COUNT, brdf};
-use wildlight_synth::bvh::Bvh;
-use wildlight_synth::{EnvMap, MaterialDefinition, RenderScene, ShadingSettings, SurfacePoint};
+use wildlight_pathtrace::{
+    AmbientSettings, EnvMap, Scene, SurfacePoint, ambient_radiance, pixel_rng,
+};
 
 use crate::ExportError;
-use crate::ViewMaps;
 use crate::bake::{NORMAL, from_tangent_space};
 use crate::gltf::Asset;
 use crate::source::{FieldSource, MAX_BATCH, bounded_sdf};
@@ -107,9 +106,9 @@ impl Default for LightingSettings {
 /// An exported asset prepared for ray casting in the normalized frame.
 pub struct AssetTracer<'a> {
     asset: &'a Asset,
-    bvh: Bvh,
-    /// The asset's mesh in the normalized frame, for shadow rays.
-    shadows: RenderScene,
+    /// The asset's mesh in the normalized frame: its BVH for camera rays
+    /// (the attributes come from the asset) and shadow rays.
+    scene: Scene,
     to_normalized: Mat4,
 }
 
@@ -149,15 +148,9 @@ impl<'a> AssetTracer<'a> {
                 .collect(),
             mesh.triangles.clone(),
         );
-        let positions: Vec<DVec3> = normalized.positions.iter().map(|p| p.as_dvec3()).collect();
-        let bvh = Bvh::new(&positions, &normalized.triangles);
-        let placeholder = MaterialDefinition::Constant {
-            material: wildlight_material::Material::default(),
-        };
         Ok(AssetTracer {
             asset,
-            bvh,
-            shadows: RenderScene::new(&normalized, placeholder),
+            scene: Scene::new(&normalized),
             to_normalized: asset_to_normalized,
         })
     }
@@ -165,8 +158,9 @@ impl<'a> AssetTracer<'a> {
     /// The first hit of the ray from `origin` along unit `dir` (normalized
     /// frame), with the textures sampled there.
     pub fn trace(&self, origin: DVec3, dir: DVec3) -> Option<AssetHit> {
-        let hit = self.bvh.intersect(origin, dir, 0.0, f64::INFINITY)?;
-        let hit = self.bvh.refine(origin, dir, hit);
+        let bvh = self.scene.bvh();
+        let hit = bvh.intersect(origin, dir, 0.0, f64::INFINITY)?;
+        let hit = bvh.refine(origin, dir, hit);
         let mesh = &self.asset.mesh;
         let [ia, ib, ic] = mesh.triangles[hit.triangle as usize].map(|v| v as usize);
         let (wa, wb, wc) = ((1.0 - hit.u - hit.v) as f32, hit.u as f32, hit.v as f32);
@@ -250,12 +244,9 @@ impl<'a> AssetTracer<'a> {
             camera.width as f64 / width as f64,
             camera.height as f64 / height as f64,
         );
-        let shading = ShadingSettings {
+        let ambient_settings = AmbientSettings {
             spp: settings.spp.max(1),
             brdf: settings.flash.brdf,
-            noise: 0.0,
-            saturation: None,
-            seed: settings.seed,
         };
         let w = width as usize;
         let pixels: Vec<Pixel> = (0..w * height as usize)
@@ -284,15 +275,15 @@ impl<'a> AssetTracer<'a> {
                     &settings.flash,
                 );
                 let ambient = settings.env.as_ref().map_or([0.0; 3], |env| {
-                    let mut rng = pixel_rng(settings.seed, view, i);
+                    let mut rng = pixel_rng(settings.seed, view, i, 0);
                     let params = hit.params.map(f64::from);
-                    wildlight_synth::ambient_radiance(
-                        &self.shadows,
+                    ambient_radiance(
+                        &self.scene,
                         env,
                         &sp,
                         -dir,
                         &params,
-                        &shading,
+                        &ambient_settings,
                         &mut rng,
                     )
                     .as_vec3()
@@ -331,20 +322,6 @@ struct Pixel {
     depth: f32,
     params: [f32; PARAM_COUNT],
     hit: bool,
-}
-
-/// SplitMix64 finalizer: a well-mixed 64-bit hash.
-fn mix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
-/// The random numbers of one pixel, independent of the thread schedule.
-fn pixel_rng(seed: u64, view: usize, pixel: usize) -> Pcg32 {
-    let h = mix64(seed ^ mix64(view as u64 ^ mix64(pixel as u64)));
-    Pcg32::new(h, mix64(h) | 1)
 }
 
 fn to_flash_image(camera: &Camera, pixels: Vec<Option<[f32; 3]>>) -> FlashImage {

@@ -372,7 +372,7 @@ fn constant_sphere() -> (wildlight_export::Exported, wildlight_material::Materia
 fn asset_view_has_the_flash_term_and_the_synthetic_environment_light() {
     let (exported, material) = constant_sphere();
     let tracer = AssetTracer::new(&exported.asset, common::scale_mat().inverse()).unwrap();
-    let env = wildlight_synth::EnvMap::procedural_sky();
+    let env = wildlight_pathtrace::EnvMap::procedural_sky();
     let lighting = LightingSettings {
         env: Some(env.clone()),
         spp: 32,

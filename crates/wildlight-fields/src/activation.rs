@@ -1,8 +1,8 @@
 //! Element-wise activation functions of the MLPs, with derivatives expressed
 //! through the activation's *output* (so the forward pass only keeps outputs).
 
-use crate::real::Real;
 use serde::{Deserialize, Serialize};
+use wildlight_real::Real;
 
 /// An element-wise activation.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -40,10 +40,10 @@ fn softplus_block<T: Real>(beta: f32, z: &mut [T; SOFTPLUS_BLOCK]) {
     for k in 0..SOFTPLUS_BLOCK {
         u[k] = -t[k].abs();
     }
-    T::exp_block(&mut u);
+    T::exp_fast_block(&mut u);
     T::ln_1p_unit_block(&mut u);
     for k in 0..SOFTPLUS_BLOCK {
-        z[k] = (t[k].max(T::ZERO) + u[k]) / b;
+        z[k] = (t[k].max_cmp(T::ZERO) + u[k]) / b;
     }
 }
 
@@ -58,9 +58,9 @@ impl Activation {
                 let b = T::from_f64(beta as f64);
                 let t = b * z;
                 // softplus(t) = max(t, 0) + ln(1 + e^(−|t|))
-                (t.max(T::ZERO) + (-t.abs()).exp().ln_1p_unit()) / b
+                (t.max_cmp(T::ZERO) + (-t.abs()).exp_fast().ln_1p_unit()) / b
             }
-            Activation::Sigmoid => T::ONE / (T::ONE + (-z).exp()),
+            Activation::Sigmoid => T::ONE / (T::ONE + (-z).exp_fast()),
         }
     }
 

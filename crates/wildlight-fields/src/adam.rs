@@ -16,9 +16,9 @@
 //! with subnormal ones, one thread). Below the floor a moment moves its
 //! parameter by less than `lr · 1e-30 / ε`, far below f32's resolution.
 
-use crate::real::Real;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use wildlight_real::Real;
 
 /// Hyper-parameters of one group.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -6,7 +6,7 @@
 //! Every sum runs in a fixed order that depends only on the shapes, so
 //! results are deterministic.
 
-use crate::real::Real;
+use wildlight_real::Real;
 
 /// Rows of a register tile (two or four SIMD vectors).
 const RT: usize = 16;

@@ -29,10 +29,10 @@
 
 use crate::error::FieldError;
 use crate::memory::{huge_vec, prefetch};
-use crate::real::Real;
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use wildlight_real::Real;
 
 /// Settings of a hash encoding.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -172,7 +172,7 @@ fn locate<T: Real>(level: &LevelInfo, x: [T; 3]) -> Cell<T> {
         if !(xd >= T::ZERO && xd <= T::ONE) {
             inside[d] = T::ZERO;
         }
-        let xc = xd.max(T::ZERO).min(T::ONE);
+        let xc = xd.max_cmp(T::ZERO).min_cmp(T::ONE);
         let pos = xc * scale;
         let fl = pos.floor().to_u32().min(res - 1);
         i0[d] = fl;
@@ -432,8 +432,8 @@ impl<T: Real> BlockCells<T> {
         let mut w1 = [[T::ZERO; BLOCK]; 3];
         for d in 0..3 {
             for i in 0..BLOCK {
-                // `max` maps NaN to 0, so xc ∈ [0, 1].
-                let xc = soa[d][i].max(T::ZERO).min(T::ONE);
+                // `max_cmp` maps NaN to 0, so xc ∈ [0, 1].
+                let xc = soa[d][i].max_cmp(T::ZERO).min_cmp(T::ONE);
                 let pos = xc * scale;
                 // pos ≥ 0, so truncation is the floor.
                 // SAFETY: pos ∈ [0, 2^20] (resolutions are at most 2^20).

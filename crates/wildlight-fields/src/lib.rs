@@ -12,10 +12,10 @@
 //! - [`adam`]: Adam with parameter groups and learning-rate schedules;
 //! - [`checkpoint`]: versioned safetensors checkpoints;
 //!
-//! Every kernel is generic over [`Real`] (`f32` for training, `f64` for
-//! gradient checks). Parallel work uses rayon over fixed chunks of
-//! [`CHUNK_ROWS`] points and reductions in a fixed order: results are
-//! bit-identical for the same seed, whatever the thread count.
+//! Every kernel is generic over [`wildlight_real::Real`] (`f32` for
+//! training, `f64` for gradient checks). Parallel work uses rayon over fixed
+//! chunks of [`CHUNK_ROWS`] points and reductions in a fixed order: results
+//! are bit-identical for the same seed, whatever the thread count.
 //!
 //! # Calling pattern (one training step)
 //!
@@ -84,5 +84,5 @@ pub use error::FieldError;
 pub use hash_grid::{HashGrid, HashGridConfig, Interpolation};
 pub use mlp::{CHUNK_ROWS, Mlp, MlpChunk, MlpConfig, MlpContext, MlpScratch};
 pub use neural_field::{FieldContext, FieldGrads, NeuralField, NeuralFieldConfig};
-pub use real::{Real, all_finite};
+pub use real::all_finite;
 pub use sdf_field::{FdScheme, NormalContext, SdfField, SdfFieldConfig};

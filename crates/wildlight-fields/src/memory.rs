@@ -2,7 +2,7 @@
 //! they are backed by transparent huge pages where the OS allows it (fewer TLB
 //! misses), and touched through software prefetches.
 
-use crate::real::Real;
+use wildlight_real::Real;
 
 const HUGE_PAGE: usize = 2 << 20;
 

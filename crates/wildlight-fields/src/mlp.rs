@@ -19,10 +19,10 @@
 use crate::activation::Activation;
 use crate::dense::{linear_backward_params, linear_forward};
 use crate::error::FieldError;
-use crate::real::Real;
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use wildlight_real::Real;
 
 /// Rows per chunk: the unit of parallel work and of the deterministic reductions.
 pub const CHUNK_ROWS: usize = 256;

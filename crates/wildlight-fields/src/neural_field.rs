@@ -13,9 +13,9 @@ use crate::activation::Activation;
 use crate::error::FieldError;
 use crate::hash_grid::{BlockLayout, HashGrid, HashGridConfig};
 use crate::mlp::{CHUNK_ROWS, Mlp, MlpChunk, MlpConfig, MlpScratch};
-use crate::real::Real;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use wildlight_real::Real;
 
 /// Settings of a [`NeuralField`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -24,10 +24,10 @@ use crate::activation::Activation;
 use crate::error::FieldError;
 use crate::hash_grid::HashGridConfig;
 use crate::neural_field::{FieldContext, FieldGrads, NeuralField, NeuralFieldConfig};
-use crate::real::Real;
 use rand::SeedableRng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use wildlight_real::Real;
 
 /// Settings of an [`SdfField`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

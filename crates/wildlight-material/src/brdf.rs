@@ -14,8 +14,8 @@
 //!
 //! which keeps the derivatives short: ∂ρ/∂base_color is diagonal with `a`.
 
-use crate::real::Real;
 use crate::{BASE_COLOR, CLEARCOAT, CLEARCOAT_GLOSS, DIELECTRIC, METALLIC, ROUGHNESS, SUBSURFACE};
+use wildlight_real::Real;
 
 /// Smallest c = n·h the model evaluates (SPEC §3 numerical safety).
 pub const MIN_COS: f64 = 1e-4;
@@ -80,14 +80,14 @@ struct Partials<T> {
 /// tiny (a glossy lobe seen head-on), where the textbook form cancels.
 #[inline(always)]
 fn ggx_d<T: Real>(k: T, c: T) -> Partials<T> {
-    let pi = T::of(core::f64::consts::PI);
-    let one = T::of(1.0);
+    let pi = T::from_f64(core::f64::consts::PI);
+    let one = T::from_f64(1.0);
     let den = (one - c) * (one + c) + k * c * c;
     let den3 = den * den * den;
     Partials {
         v: k / (pi * den * den),
-        d0: (den - T::of(2.0) * k * c * c) / (pi * den3),
-        dc: -T::of(4.0) * k * (k - one) * c / (pi * den3),
+        d0: (den - T::from_f64(2.0) * k * c * c) / (pi * den3),
+        dc: -T::from_f64(4.0) * k * (k - one) * c / (pi * den3),
     }
 }
 
@@ -95,19 +95,19 @@ fn ggx_d<T: Real>(k: T, c: T) -> Partials<T> {
 /// 0.25² for the clearcoat) and c: G = 2 / (sqrt(1 + k (1 − c²)/c²) + 1).
 #[inline(always)]
 fn smith_g<T: Real>(k: T, c: T) -> Partials<T> {
-    let one = T::of(1.0);
+    let one = T::from_f64(1.0);
     let inv_c2 = one / (c * c);
     // (1 − c²)/c², with 1 − c² as (1 − c)(1 + c) for precision near c = 1.
     let tan2 = (one - c) * (one + c) * inv_c2;
     let u = k * tan2;
     let s = (one + u).sqrt();
-    let g = T::of(2.0) / (s + one);
+    let g = T::from_f64(2.0) / (s + one);
     // dG/du = −1 / ((s + 1)² s)
     let dg_du = -one / ((s + one) * (s + one) * s);
     Partials {
         v: g,
         d0: dg_du * tan2,
-        dc: dg_du * (-T::of(2.0) * k * inv_c2 / c),
+        dc: dg_du * (-T::from_f64(2.0) * k * inv_c2 / c),
     }
 }
 
@@ -117,12 +117,12 @@ fn smith_g<T: Real>(k: T, c: T) -> Partials<T> {
 fn specular<T: Real>(k: T, c: T) -> Partials<T> {
     let d = ggx_d(k, c);
     let g = smith_g(k, c);
-    let four_c2 = T::of(4.0) * c * c;
+    let four_c2 = T::from_f64(4.0) * c * c;
     let v = d.v * g.v / four_c2;
     Partials {
         v,
         d0: (d.d0 * g.v + d.v * g.d0) / four_c2,
-        dc: (d.dc * g.v + d.v * g.dc) / four_c2 - T::of(2.0) * v / c,
+        dc: (d.dc * g.v + d.v * g.dc) / four_c2 - T::from_f64(2.0) * v / c,
     }
 }
 
@@ -130,11 +130,11 @@ fn specular<T: Real>(k: T, c: T) -> Partials<T> {
 /// the clearcoat gloss g and c; `d0` is ∂/∂g.
 #[inline(always)]
 fn clearcoat<T: Real>(gloss: T, c: T, fresnel: T) -> Partials<T> {
-    let pi = T::of(core::f64::consts::PI);
-    let one = T::of(1.0);
-    let two = T::of(2.0);
+    let pi = T::from_f64(core::f64::consts::PI);
+    let one = T::from_f64(1.0);
+    let two = T::from_f64(2.0);
     // eq. 15: r_c = 0.1 − 0.099 g
-    let rc = T::of(0.1) - T::of(0.099) * gloss;
+    let rc = T::from_f64(0.1) - T::from_f64(0.099) * gloss;
     // eq. 12: D_c = (r_c² − 1) / (2π ln(r_c) (1 + (r_c² − 1) c²))
     let e = rc * rc - one;
     let l = rc.ln();
@@ -146,13 +146,13 @@ fn clearcoat<T: Real>(gloss: T, c: T, fresnel: T) -> Partials<T> {
     let ddc_drc = ddc_de * two * rc + ddc_dl / rc;
     let ddc_dc = -e * two * e * c / (two * pi * l * den * den);
     // eq. 13: G_c with k = 0.25²
-    let g = smith_g(T::of(0.0625), c);
-    let four_c2 = T::of(4.0) * c * c;
+    let g = smith_g(T::from_f64(0.0625), c);
+    let four_c2 = T::from_f64(4.0) * c * c;
     // eqs. 11, 14
     let v = dc_v * g.v * fresnel / four_c2;
     Partials {
         v,
-        d0: ddc_drc * T::of(-0.099) * g.v * fresnel / four_c2,
+        d0: ddc_drc * T::from_f64(-0.099) * g.v * fresnel / four_c2,
         dc: (ddc_dc * g.v + dc_v * g.dc) * fresnel / four_c2 - two * v / c,
     }
 }
@@ -160,32 +160,32 @@ fn clearcoat<T: Real>(gloss: T, c: T, fresnel: T) -> Partials<T> {
 /// Value of [`ggx_d`] alone, in the same operations (same rounding).
 #[inline(always)]
 fn ggx_d_value<T: Real>(k: T, c: T) -> T {
-    let one = T::of(1.0);
+    let one = T::from_f64(1.0);
     let den = (one - c) * (one + c) + k * c * c;
-    k / (T::of(core::f64::consts::PI) * den * den)
+    k / (T::from_f64(core::f64::consts::PI) * den * den)
 }
 
 /// Value of [`smith_g`] alone, in the same operations (same rounding).
 #[inline(always)]
 fn smith_g_value<T: Real>(k: T, c: T) -> T {
-    let one = T::of(1.0);
+    let one = T::from_f64(1.0);
     let tan2 = (one - c) * (one + c) * (one / (c * c));
-    T::of(2.0) / ((one + k * tan2).sqrt() + one)
+    T::from_f64(2.0) / ((one + k * tan2).sqrt() + one)
 }
 
 /// Value of [`clearcoat`] alone, in the same operations (same rounding).
 #[inline(always)]
 fn clearcoat_value<T: Real>(gloss: T, c: T, fresnel: T) -> T {
-    let one = T::of(1.0);
-    let two = T::of(2.0);
+    let one = T::from_f64(1.0);
+    let two = T::from_f64(2.0);
     // eq. 15
-    let rc = T::of(0.1) - T::of(0.099) * gloss;
+    let rc = T::from_f64(0.1) - T::from_f64(0.099) * gloss;
     // eq. 12, denominator as in `clearcoat`
     let e = rc * rc - one;
     let den = (one - c) * (one + c) + rc * rc * c * c;
-    let d_c = e / (two * T::of(core::f64::consts::PI) * rc.ln() * den);
+    let d_c = e / (two * T::from_f64(core::f64::consts::PI) * rc.ln() * den);
     // eqs. 11, 13, 14
-    d_c * smith_g_value(T::of(0.0625), c) * fresnel / (T::of(4.0) * c * c)
+    d_c * smith_g_value(T::from_f64(0.0625), c) * fresnel / (T::from_f64(4.0) * c * c)
 }
 
 /// Evaluates ρ(n, h; Θ) of SPEC §3 for c = n·h.
@@ -198,13 +198,13 @@ fn clearcoat_value<T: Real>(gloss: T, c: T, fresnel: T) -> T {
 /// operations as [`eval_with_jacobian`], so the two values agree bit for bit.
 #[inline]
 pub fn eval<T: Real>(params: &[T; 9], cos: T, settings: &BrdfSettings) -> [T; 3] {
-    let one = T::of(1.0);
-    let two = T::of(2.0);
-    let inv_pi = T::of(core::f64::consts::FRAC_1_PI);
-    let c = if cos > T::of(MIN_COS) {
+    let one = T::from_f64(1.0);
+    let two = T::from_f64(2.0);
+    let inv_pi = T::from_f64(core::f64::consts::FRAC_1_PI);
+    let c = if cos > T::from_f64(MIN_COS) {
         cos
     } else {
-        T::of(MIN_COS)
+        T::from_f64(MIN_COS)
     };
     let r = params[ROUGHNESS];
     let ss = params[SUBSURFACE];
@@ -217,34 +217,34 @@ pub fn eval<T: Real>(params: &[T; 9], cos: T, settings: &BrdfSettings) -> [T; 3]
     let omc2 = omc * omc;
     let q = omc2 * omc2 * omc;
     // eq. 4 without base_color/π: (1 + (2r − 0.5) q)²
-    let u = one + (two * r - T::of(0.5)) * q;
+    let u = one + (two * r - T::from_f64(0.5)) * q;
     let f_base = u * u;
     // eq. 5 without 1.25·base_color/(2π): (1 + (r − 1) q)² (1/c − 1) + 1
     let v = one + (r - one) * q;
     let f_sub = v * v * (one / c - one) + one;
     // eq. 3 divided by base_color
-    let k_sub = T::of(1.25 / (2.0 * core::f64::consts::PI));
+    let k_sub = T::from_f64(1.25 / (2.0 * core::f64::consts::PI));
     let diffuse = (one - ss) * f_base * inv_pi + ss * k_sub * f_sub;
 
     // eqs. 6–8 with k = alpha² = r⁴, alpha clamped.
     let alpha_raw = r * r;
-    let alpha = if alpha_raw > T::of(MIN_ALPHA) {
+    let alpha = if alpha_raw > T::from_f64(MIN_ALPHA) {
         alpha_raw
     } else {
-        T::of(MIN_ALPHA)
+        T::from_f64(MIN_ALPHA)
     };
     let k = alpha * alpha;
-    let spec = ggx_d_value(k, c) * smith_g_value(k, c) / (T::of(4.0) * c * c);
+    let spec = ggx_d_value(k, c) * smith_g_value(k, c) / (T::from_f64(4.0) * c * c);
 
     let cc_lobe = clearcoat_value(
         params[CLEARCOAT_GLOSS],
         c,
-        T::of(settings.clearcoat_fresnel),
+        T::from_f64(settings.clearcoat_fresnel),
     );
 
     // eq. 2 as ρ = base·a + b (eqs. 9, 10).
     let a = (one - m) * diffuse + m * spec;
-    let b = T::of(0.08) * (one - m) * sp * spec + T::of(0.25) * cc * cc_lobe;
+    let b = T::from_f64(0.08) * (one - m) * sp * spec + T::from_f64(0.25) * cc * cc_lobe;
     [
         params[BASE_COLOR] * a + b,
         params[BASE_COLOR + 1] * a + b,
@@ -262,13 +262,13 @@ pub fn eval_with_jacobian<T: Real>(
     cos: T,
     settings: &BrdfSettings,
 ) -> BrdfJacobian<T> {
-    let one = T::of(1.0);
-    let zero = T::of(0.0);
-    let inv_pi = T::of(core::f64::consts::FRAC_1_PI);
-    let (c, dc_dcos) = if cos > T::of(MIN_COS) {
+    let one = T::from_f64(1.0);
+    let zero = T::from_f64(0.0);
+    let inv_pi = T::from_f64(core::f64::consts::FRAC_1_PI);
+    let (c, dc_dcos) = if cos > T::from_f64(MIN_COS) {
         (cos, one)
     } else {
-        (T::of(MIN_COS), zero)
+        (T::from_f64(MIN_COS), zero)
     };
     let base = [
         params[BASE_COLOR],
@@ -286,23 +286,23 @@ pub fn eval_with_jacobian<T: Real>(
     let omc = one - c;
     let omc2 = omc * omc;
     let q = omc2 * omc2 * omc;
-    let dq_dc = -T::of(5.0) * omc2 * omc2;
+    let dq_dc = -T::from_f64(5.0) * omc2 * omc2;
 
     // eq. 4 without base_color/π: f_base = (1 + (2r − 0.5) q)²
-    let u = one + (T::of(2.0) * r - T::of(0.5)) * q;
+    let u = one + (T::from_f64(2.0) * r - T::from_f64(0.5)) * q;
     let f_base = u * u;
-    let df_base_dr = T::of(2.0) * u * T::of(2.0) * q;
-    let df_base_dc = T::of(2.0) * u * (T::of(2.0) * r - T::of(0.5)) * dq_dc;
+    let df_base_dr = T::from_f64(2.0) * u * T::from_f64(2.0) * q;
+    let df_base_dc = T::from_f64(2.0) * u * (T::from_f64(2.0) * r - T::from_f64(0.5)) * dq_dc;
 
     // eq. 5 without 1.25·base_color/(2π): f_sub = (1 + (r − 1) q)² (1/c − 1) + 1
     let v = one + (r - one) * q;
     let w = one / c - one;
     let f_sub = v * v * w + one;
-    let df_sub_dr = T::of(2.0) * v * q * w;
-    let df_sub_dc = T::of(2.0) * v * (r - one) * dq_dc * w - v * v / (c * c);
+    let df_sub_dr = T::from_f64(2.0) * v * q * w;
+    let df_sub_dc = T::from_f64(2.0) * v * (r - one) * dq_dc * w - v * v / (c * c);
 
     // eq. 3 divided by base_color
-    let k_sub = T::of(1.25 / (2.0 * core::f64::consts::PI));
+    let k_sub = T::from_f64(1.25 / (2.0 * core::f64::consts::PI));
     let diffuse = (one - ss) * f_base * inv_pi + ss * k_sub * f_sub;
     let ddiffuse_dr = (one - ss) * df_base_dr * inv_pi + ss * k_sub * df_sub_dr;
     let ddiffuse_dc = (one - ss) * df_base_dc * inv_pi + ss * k_sub * df_sub_dc;
@@ -310,17 +310,17 @@ pub fn eval_with_jacobian<T: Real>(
 
     // eqs. 6–8 with k = alpha² = r⁴, alpha clamped.
     let alpha_raw = r * r;
-    let (alpha, dalpha_dr) = if alpha_raw > T::of(MIN_ALPHA) {
-        (alpha_raw, T::of(2.0) * r)
+    let (alpha, dalpha_dr) = if alpha_raw > T::from_f64(MIN_ALPHA) {
+        (alpha_raw, T::from_f64(2.0) * r)
     } else {
-        (T::of(MIN_ALPHA), zero)
+        (T::from_f64(MIN_ALPHA), zero)
     };
     let k = alpha * alpha;
-    let dk_dr = T::of(2.0) * alpha * dalpha_dr;
+    let dk_dr = T::from_f64(2.0) * alpha * dalpha_dr;
     let spec = specular(k, c);
     let dspec_dr = spec.d0 * dk_dr;
 
-    let cc_lobe = clearcoat(gloss, c, T::of(settings.clearcoat_fresnel));
+    let cc_lobe = clearcoat(gloss, c, T::from_f64(settings.clearcoat_fresnel));
 
     // eq. 2 split as ρ = base·a + b (metallic Fresnel = base_color, eq. 9;
     // dielectric Fresnel = 1, eq. 10).
@@ -330,14 +330,14 @@ pub fn eval_with_jacobian<T: Real>(
     let da_dss = (one - m) * ddiffuse_dss;
     let da_dm = spec.v - diffuse;
 
-    let w_diel = T::of(0.08) * (one - m) * sp;
-    let w_cc = T::of(0.25) * cc;
+    let w_diel = T::from_f64(0.08) * (one - m) * sp;
+    let w_cc = T::from_f64(0.25) * cc;
     let b = w_diel * spec.v + w_cc * cc_lobe.v;
     let db_dr = w_diel * dspec_dr;
     let db_dc = w_diel * spec.dc + w_cc * cc_lobe.dc;
-    let db_dm = -T::of(0.08) * sp * spec.v;
-    let db_dsp = T::of(0.08) * (one - m) * spec.v;
-    let db_dcc = T::of(0.25) * cc_lobe.v;
+    let db_dm = -T::from_f64(0.08) * sp * spec.v;
+    let db_dsp = T::from_f64(0.08) * (one - m) * spec.v;
+    let db_dcc = T::from_f64(0.25) * cc_lobe.v;
     let db_dgloss = w_cc * cc_lobe.d0;
 
     let mut jac = BrdfJacobian {

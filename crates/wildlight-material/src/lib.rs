@@ -12,11 +12,9 @@
 
 pub mod brdf;
 pub mod material;
-pub mod real;
 
 pub use brdf::{BrdfJacobian, BrdfSettings};
 pub use material::{
     BASE_COLOR, CLEARCOAT, CLEARCOAT_GLOSS, DIELECTRIC, METALLIC, Material, PARAM_COUNT,
     PARAM_NAMES, ROUGHNESS, SUBSURFACE,
 };
-pub use real::Real;

@@ -1,6 +1,6 @@
 //! The material parameter set Θ (appendix eq. 1).
 
-use crate::real::Real;
+use wildlight_real::Real;
 
 /// Number of material parameters (base colour counts three).
 pub const PARAM_COUNT: usize = 9;
@@ -71,15 +71,15 @@ impl Material {
     /// The parameters as a vector in the order of [`PARAM_NAMES`].
     pub fn to_array<T: Real>(&self) -> [T; PARAM_COUNT] {
         [
-            T::of(self.base_color[0]),
-            T::of(self.base_color[1]),
-            T::of(self.base_color[2]),
-            T::of(self.roughness),
-            T::of(self.clearcoat_gloss),
-            T::of(self.subsurface),
-            T::of(self.metallic),
-            T::of(self.dielectric),
-            T::of(self.clearcoat),
+            T::from_f64(self.base_color[0]),
+            T::from_f64(self.base_color[1]),
+            T::from_f64(self.base_color[2]),
+            T::from_f64(self.roughness),
+            T::from_f64(self.clearcoat_gloss),
+            T::from_f64(self.subsurface),
+            T::from_f64(self.metallic),
+            T::from_f64(self.dielectric),
+            T::from_f64(self.clearcoat),
         ]
     }
 

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 /// line (1-based).
 #[derive(Debug, thiserror::Error)]
 pub enum MeshError {
-    /// The file could not be opened, read, written or renamed.
+    /// The file could not be opened or read.
     #[error("{path}: {source}")]
     Io {
         /// The file concerned.
@@ -36,6 +36,10 @@ pub enum MeshError {
         /// What is wrong.
         message: String,
     },
+    /// The file could not be written (its temporary file created, written,
+    /// synced or renamed onto it).
+    #[error(transparent)]
+    Write(#[from] wildlight_data::DataError),
     /// The file name has no extension this crate reads or writes.
     #[error("{path}: unknown mesh format (expected a .ply or .obj file)")]
     UnknownFormat {

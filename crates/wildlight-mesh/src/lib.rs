@@ -11,7 +11,6 @@
 //! mesh.write("copy.obj").unwrap();
 //! ```
 
-mod atomic;
 mod components;
 mod error;
 pub mod obj;

@@ -15,12 +15,12 @@
 //! Writing produces `v`, optional `vt` and `vn` lines (one per vertex) and
 //! faces in the matching `a/b/c` form.
 
-use crate::atomic::write_atomically;
 use crate::{MeshError, TriMesh};
 use glam::{Vec2, Vec3};
 use std::collections::HashMap;
 use std::io::Write;
 use std::path::Path;
+use wildlight_data::atomic::write_io_atomically;
 
 /// Reads an OBJ file.
 pub fn read_obj(path: &Path) -> Result<TriMesh, MeshError> {
@@ -186,7 +186,7 @@ fn resolve_index(part: Option<&str>, count: usize) -> Result<Option<u32>, String
 /// the `v x y z r g b` extension.
 pub fn write_obj(mesh: &TriMesh, path: &Path) -> Result<(), MeshError> {
     mesh.validate(path)?;
-    write_atomically(path, |w| {
+    write_io_atomically(path, |w| {
         writeln!(w, "# wildlight-mesh")?;
         for (i, p) in mesh.positions.iter().enumerate() {
             match &mesh.colors {
@@ -217,5 +217,6 @@ pub fn write_obj(mesh: &TriMesh, path: &Path) -> Result<(), MeshError> {
             }
         }
         Ok(())
-    })
+    })?;
+    Ok(())
 }

@@ -17,10 +17,10 @@
 //! bits), optional `u v` floats and faces as `list uchar int
 //! vertex_indices`.
 
-use crate::atomic::write_atomically;
 use crate::{MeshError, TriMesh};
 use glam::{Vec2, Vec3};
 use std::path::Path;
+use wildlight_data::atomic::write_bytes_atomically;
 
 /// A PLY scalar type.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -575,7 +575,8 @@ fn skip_rows(element: &Element, source: &mut dyn RowSource) -> Result<(), MeshEr
 pub fn write_ply(mesh: &TriMesh, path: &Path) -> Result<(), MeshError> {
     mesh.validate(path)?;
     let bytes = encode_ply(mesh);
-    write_atomically(path, |w| std::io::Write::write_all(w, &bytes))
+    write_bytes_atomically(path, &bytes)?;
+    Ok(())
 }
 
 /// Encodes `mesh` as binary little-endian PLY bytes.

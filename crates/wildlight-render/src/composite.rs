@@ -10,13 +10,14 @@
 use rayon::prelude::*;
 
 use crate::packing::{ray_chunks, ray_count, sample_count, split_mut};
-use crate::real::{Scalar, dot3};
+use crate::real::dot3;
+use wildlight_real::Real;
 
 /// Per-ray Σ_k w_k a_k of a `C`-channel per-sample attribute.
 ///
 /// # Panics
 /// If lengths disagree with `offsets`.
-pub fn composite<T: Scalar, const C: usize>(
+pub fn composite<T: Real, const C: usize>(
     offsets: &[u32],
     weight: &[T],
     attr: &[[T; C]],
@@ -30,7 +31,7 @@ pub fn composite<T: Scalar, const C: usize>(
     let outs = split_mut(out, chunks.iter().map(|c| c.rays.clone()));
     chunks.par_iter().zip(outs).for_each(|(chunk, out)| {
         for (o, ray) in out.iter_mut().zip(chunk.rays.clone()) {
-            let mut acc = [T::of(0.0); C];
+            let mut acc = [T::from_f64(0.0); C];
             for k in offsets[ray] as usize..offsets[ray + 1] as usize {
                 let w = weight[k];
                 for (a, &x) in acc.iter_mut().zip(&attr[k]) {
@@ -48,7 +49,7 @@ pub fn composite<T: Scalar, const C: usize>(
 ///
 /// # Panics
 /// If lengths disagree with `offsets`.
-pub fn composite_backward<T: Scalar, const C: usize>(
+pub fn composite_backward<T: Real, const C: usize>(
     offsets: &[u32],
     weight: &[T],
     attr: &[[T; C]],
@@ -81,7 +82,7 @@ pub fn composite_backward<T: Scalar, const C: usize>(
                         let g = d_out[ray];
                         for k in offsets[ray] as usize..offsets[ray + 1] as usize {
                             let l = k - base;
-                            let mut s = T::of(0.0);
+                            let mut s = T::from_f64(0.0);
                             for c in 0..C {
                                 s += g[c] * attr[k][c];
                                 da[l][c] += weight[k] * g[c];
@@ -97,7 +98,7 @@ pub fn composite_backward<T: Scalar, const C: usize>(
                 for ray in chunk.rays.clone() {
                     let g = d_out[ray];
                     for k in offsets[ray] as usize..offsets[ray + 1] as usize {
-                        let mut s = T::of(0.0);
+                        let mut s = T::from_f64(0.0);
                         for c in 0..C {
                             s += g[c] * attr[k][c];
                         }
@@ -111,7 +112,7 @@ pub fn composite_backward<T: Scalar, const C: usize>(
 
 /// ADDS a per-ray ∂L/∂(Σ w) (e.g. from the mask loss, or −∂L/∂C·b for a
 /// background colour b composited with weight 1 − Σ w) into ∂L/∂w_k.
-pub fn acc_weight_backward<T: Scalar>(offsets: &[u32], d_acc: &[T], d_weight: &mut [T]) {
+pub fn acc_weight_backward<T: Real>(offsets: &[u32], d_acc: &[T], d_weight: &mut [T]) {
     assert_eq!(d_acc.len(), ray_count(offsets));
     assert_eq!(d_weight.len(), sample_count(offsets));
     for (ray, &g) in d_acc.iter().enumerate() {
@@ -124,12 +125,12 @@ pub fn acc_weight_backward<T: Scalar>(offsets: &[u32], d_acc: &[T], d_weight: &m
 /// Composites a per-ray background radiance b behind the samples:
 /// C += b·(1 − Σw) (the "+ background" of SPEC §2; §6 for captures
 /// without masks).
-pub fn add_background<T: Scalar>(acc_weight: &[T], background: &[[T; 3]], colour: &mut [[T; 3]]) {
+pub fn add_background<T: Real>(acc_weight: &[T], background: &[[T; 3]], colour: &mut [[T; 3]]) {
     assert_eq!(acc_weight.len(), colour.len(), "add_background: ray count");
     assert_eq!(background.len(), colour.len(), "add_background: ray count");
     for ((c, b), &w) in colour.iter_mut().zip(background).zip(acc_weight) {
         for i in 0..3 {
-            c[i] += b[i] * (T::of(1.0) - w);
+            c[i] += b[i] * (T::from_f64(1.0) - w);
         }
     }
 }
@@ -137,7 +138,7 @@ pub fn add_background<T: Scalar>(acc_weight: &[T], background: &[[T; 3]], colour
 /// Backward of [`add_background`]: ADDS −∂L/∂C·b into `d_acc_weight`
 /// (per ray ∂L/∂(Σw), to pass to [`crate::neus::NeusWeights::backward`])
 /// and ∂L/∂b = ∂L/∂C·(1 − Σw) into `d_background`.
-pub fn add_background_backward<T: Scalar>(
+pub fn add_background_backward<T: Real>(
     acc_weight: &[T],
     background: &[[T; 3]],
     d_colour: &[[T; 3]],
@@ -153,7 +154,7 @@ pub fn add_background_backward<T: Scalar>(
         assert_eq!(db.len(), n, "add_background_backward: d_background length");
         for r in 0..n {
             for i in 0..3 {
-                db[r][i] += d_colour[r][i] * (T::of(1.0) - acc_weight[r]);
+                db[r][i] += d_colour[r][i] * (T::from_f64(1.0) - acc_weight[r]);
             }
         }
     }

@@ -14,7 +14,8 @@ use rayon::prelude::*;
 use wildlight_material::{BrdfJacobian, BrdfSettings, brdf};
 
 use crate::packing::{ray_chunks, split_mut, validate_offsets};
-use crate::real::{Scalar, dot3};
+use crate::real::dot3;
+use wildlight_real::Real;
 
 /// Smallest squared light distance used in the inverse-square falloff.
 pub const MIN_DIST2: f64 = 1e-8;
@@ -23,7 +24,7 @@ pub const MIN_GRAD_NORM: f64 = 1e-12;
 
 /// The flash gain γ = exp(g) for log-gain `g`.
 #[inline]
-pub fn gain<T: Scalar>(log_gain: T) -> T {
+pub fn gain<T: Real>(log_gain: T) -> T {
     log_gain.exp()
 }
 
@@ -67,8 +68,8 @@ struct SampleGeometry<T> {
 }
 
 #[inline(always)]
-fn geometry<T: Scalar>(dir: [T; 3], grad: [T; 3], t: T, gamma: T) -> SampleGeometry<T> {
-    let grad_norm = dot3(grad, grad).sqrt().max(T::of(MIN_GRAD_NORM));
+fn geometry<T: Real>(dir: [T; 3], grad: [T; 3], t: T, gamma: T) -> SampleGeometry<T> {
+    let grad_norm = dot3(grad, grad).sqrt().max(T::from_f64(MIN_GRAD_NORM));
     let normal = grad.map(|g| g / grad_norm);
     let h = dir.map(|d| -d);
     SampleGeometry {
@@ -76,13 +77,13 @@ fn geometry<T: Scalar>(dir: [T; 3], grad: [T; 3], t: T, gamma: T) -> SampleGeome
         grad_norm,
         h,
         cos: dot3(normal, h),
-        falloff: gamma / (t * t).max(T::of(MIN_DIST2)),
+        falloff: gamma / (t * t).max(T::from_f64(MIN_DIST2)),
     }
 }
 
 #[inline(always)]
-fn is_off<T: Scalar>(e: [T; 3]) -> bool {
-    let z = T::of(0.0);
+fn is_off<T: Real>(e: [T; 3]) -> bool {
+    let z = T::from_f64(0.0);
     e[0] == z && e[1] == z && e[2] == z
 }
 
@@ -93,7 +94,7 @@ pub struct FlashCache<T> {
     jacobians: Vec<BrdfJacobian<T>>,
 }
 
-impl<T: Scalar> FlashCache<T> {
+impl<T: Real> FlashCache<T> {
     /// An empty cache (grows on first use, then reused).
     pub fn new() -> Self {
         Self {
@@ -112,8 +113,8 @@ impl<T: Scalar> FlashCache<T> {
     }
 }
 
-fn zero_jacobian<T: Scalar>() -> BrdfJacobian<T> {
-    let z = T::of(0.0);
+fn zero_jacobian<T: Real>() -> BrdfJacobian<T> {
+    let z = T::from_f64(0.0);
     BrdfJacobian {
         value: [z; 3],
         d_params: [[z; 3]; 9],
@@ -126,7 +127,7 @@ fn zero_jacobian<T: Scalar>() -> BrdfJacobian<T> {
 ///
 /// # Panics
 /// If the inputs are inconsistent or `out` has the wrong length.
-pub fn flash_forward<T: Scalar>(
+pub fn flash_forward<T: Real>(
     inputs: &FlashInputs<'_, T>,
     log_gain: T,
     settings: &BrdfSettings,
@@ -169,7 +170,7 @@ pub fn flash_forward<T: Scalar>(
                 let range = inputs.offsets[ray] as usize..inputs.offsets[ray + 1] as usize;
                 if is_off(e) {
                     for o in &mut out[range.start - base..range.end - base] {
-                        *o = [T::of(0.0); 3];
+                        *o = [T::from_f64(0.0); 3];
                     }
                     if let Some(c) = cache.as_deref_mut() {
                         c[range.start - base..range.end - base].fill(zero_jacobian());
@@ -179,7 +180,7 @@ pub fn flash_forward<T: Scalar>(
                 let dir = inputs.ray_dirs[ray];
                 for k in range {
                     let g = geometry(dir, inputs.sdf_grad[k], inputs.t[k], gamma);
-                    out[k - base] = if g.cos > T::of(0.0) {
+                    out[k - base] = if g.cos > T::from_f64(0.0) {
                         let rho = match cache.as_deref_mut() {
                             Some(c) => {
                                 let jac =
@@ -195,7 +196,7 @@ pub fn flash_forward<T: Scalar>(
                         if let Some(c) = cache.as_deref_mut() {
                             c[k - base] = zero_jacobian();
                         }
-                        [T::of(0.0); 3]
+                        [T::from_f64(0.0); 3]
                     };
                 }
             }
@@ -212,7 +213,7 @@ pub fn flash_forward<T: Scalar>(
 /// # Panics
 /// If the inputs are inconsistent or a buffer has the wrong length.
 #[allow(clippy::needless_range_loop)] // several parallel arrays share the index
-pub fn flash_backward<T: Scalar>(
+pub fn flash_backward<T: Real>(
     inputs: &FlashInputs<'_, T>,
     log_gain: T,
     settings: &BrdfSettings,
@@ -242,7 +243,7 @@ pub fn flash_backward<T: Scalar>(
         .zip(dgs)
         .map(|((chunk, dp), dg)| {
             let base = chunk.samples.start;
-            let mut d_log_gain = T::of(0.0);
+            let mut d_log_gain = T::from_f64(0.0);
             for ray in chunk.rays.clone() {
                 let e = inputs.light_energy[ray];
                 if is_off(e) {
@@ -251,7 +252,7 @@ pub fn flash_backward<T: Scalar>(
                 let dir = inputs.ray_dirs[ray];
                 for k in inputs.offsets[ray] as usize..inputs.offsets[ray + 1] as usize {
                     let g = geometry(dir, inputs.sdf_grad[k], inputs.t[k], gamma);
-                    if g.cos <= T::of(0.0) {
+                    if g.cos <= T::from_f64(0.0) {
                         continue;
                     }
                     // Borrowed from the cache (no 132-byte copy per sample).
@@ -265,8 +266,8 @@ pub fn flash_backward<T: Scalar>(
                     };
                     let s = g.cos * g.falloff;
                     let df = d_out[k];
-                    let mut d_rho = [T::of(0.0); 3];
-                    let mut d_cos = T::of(0.0);
+                    let mut d_rho = [T::from_f64(0.0); 3];
+                    let mut d_cos = T::from_f64(0.0);
                     for i in 0..3 {
                         let f_i = e[i] * jac.value[i] * s;
                         d_log_gain += df[i] * f_i;
@@ -289,7 +290,7 @@ pub fn flash_backward<T: Scalar>(
             d_log_gain
         })
         .collect();
-    let mut d_log_gain = T::of(0.0);
+    let mut d_log_gain = T::from_f64(0.0);
     for x in partial {
         d_log_gain += x;
     }

@@ -127,7 +127,6 @@ pub use flash::{FlashCache, FlashInputs, flash_backward, flash_forward, gain};
 pub use neus::{NeusInputs, NeusSettings, NeusWeights, cos_anneal_ratio, sharpness};
 pub use occupancy::{CellState, OccupancyGrid, OccupancySettings, OccupancySnapshot, RefreshMode};
 pub use packing::RAY_CHUNK;
-pub use real::Scalar;
 pub use sampler::{
     CoarseSamples, RaySamples, Rays, Sampler, SamplerSettings, dense_samples, sphere_chord,
 };

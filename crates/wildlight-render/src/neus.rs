@@ -25,7 +25,8 @@
 use rayon::prelude::*;
 
 use crate::packing::{ray_chunks, split_mut, validate_offsets};
-use crate::real::{Scalar, dot3};
+use crate::real::dot3;
+use wildlight_real::Real;
 
 /// The ε of the NeuS alpha (SPEC §2).
 pub const ALPHA_EPS: f64 = 1e-5;
@@ -39,14 +40,14 @@ pub const V_INIT: f64 = 0.3;
 /// The sharpness s = exp(10·v) (SPEC §2, NeuS) and ds/dv; clamped to
 /// [[`SHARPNESS_MIN`], [`SHARPNESS_MAX`]] with a zero derivative outside.
 #[inline]
-pub fn sharpness<T: Scalar>(v: T) -> (T, T) {
-    let s = (T::of(10.0) * v).exp();
-    if s < T::of(SHARPNESS_MIN) {
-        (T::of(SHARPNESS_MIN), T::of(0.0))
-    } else if s > T::of(SHARPNESS_MAX) {
-        (T::of(SHARPNESS_MAX), T::of(0.0))
+pub fn sharpness<T: Real>(v: T) -> (T, T) {
+    let s = (T::from_f64(10.0) * v).exp();
+    if s < T::from_f64(SHARPNESS_MIN) {
+        (T::from_f64(SHARPNESS_MIN), T::from_f64(0.0))
+    } else if s > T::from_f64(SHARPNESS_MAX) {
+        (T::from_f64(SHARPNESS_MAX), T::from_f64(0.0))
     } else {
-        (s, T::of(10.0) * s)
+        (s, T::from_f64(10.0) * s)
     }
 }
 
@@ -122,21 +123,21 @@ struct AlphaPartials<T> {
 
 /// σ(x) and σ'(x) = σ(x)·σ(−x), with one exponential and no cancellation.
 #[inline(always)]
-fn sigmoid_with_derivative<T: Scalar>(x: T) -> (T, T) {
-    let one = T::of(1.0);
+fn sigmoid_with_derivative<T: Real>(x: T) -> (T, T) {
+    let one = T::from_f64(1.0);
     let e = (-x.abs()).exp();
     let inv = one / (one + e);
-    let sig = if x >= T::of(0.0) { inv } else { e * inv };
+    let sig = if x >= T::from_f64(0.0) { inv } else { e * inv };
     (sig, e * inv * inv)
 }
 
 /// The NeuS alpha of one sample (module docs; SPEC §2) from φ, the slope
 /// q = d·∇φ, δ, s and the cos-annealing ratio r.
 #[inline(always)]
-fn alpha_partials<T: Scalar>(sdf: T, slope: T, delta: T, s: T, r: T, eps: T) -> AlphaPartials<T> {
-    let zero = T::of(0.0);
-    let one = T::of(1.0);
-    let half = T::of(0.5);
+fn alpha_partials<T: Real>(sdf: T, slope: T, delta: T, s: T, r: T, eps: T) -> AlphaPartials<T> {
+    let zero = T::from_f64(0.0);
+    let one = T::from_f64(1.0);
+    let half = T::from_f64(0.5);
     // Cos annealing (NeuS): ĉ = −(relu(½ − ½q)(1 − r) + relu(−q) r) ≤ 0.
     let a = (half - half * slope).max(zero);
     let b = (-slope).max(zero);
@@ -192,10 +193,10 @@ fn alpha_partials<T: Scalar>(sdf: T, slope: T, delta: T, s: T, r: T, eps: T) -> 
 /// The NeuS alpha of one sample without derivatives (same formula as
 /// [`alpha_partials`]; the forward pass uses this one).
 #[inline(always)]
-fn alpha_value<T: Scalar>(sdf: T, slope: T, delta: T, s: T, r: T, eps: T) -> T {
-    let zero = T::of(0.0);
-    let one = T::of(1.0);
-    let half = T::of(0.5);
+fn alpha_value<T: Real>(sdf: T, slope: T, delta: T, s: T, r: T, eps: T) -> T {
+    let zero = T::from_f64(0.0);
+    let one = T::from_f64(1.0);
+    let half = T::from_f64(0.5);
     let iter_cos = -((half - half * slope).max(zero) * (one - r) + (-slope).max(zero) * r);
     let p = sigmoid_with_derivative(s * (sdf - iter_cos * delta * half)).0;
     let n = sigmoid_with_derivative(s * (sdf + iter_cos * delta * half)).0;
@@ -226,7 +227,7 @@ pub struct NeusWeights<T> {
     pub acc_weight: Vec<T>,
 }
 
-impl<T: Scalar> NeusWeights<T> {
+impl<T: Real> NeusWeights<T> {
     /// Empty buffers (they grow on the first [`Self::forward`] and are reused).
     pub fn new() -> Self {
         Self {
@@ -249,7 +250,7 @@ impl<T: Scalar> NeusWeights<T> {
         );
         let n = inputs.sdf.len();
         let n_rays = inputs.ray_dirs.len();
-        let zero = T::of(0.0);
+        let zero = T::from_f64(0.0);
         self.alpha.clear();
         self.alpha.resize(n, zero);
         self.weight.clear();
@@ -259,8 +260,8 @@ impl<T: Scalar> NeusWeights<T> {
         self.acc_weight.clear();
         self.acc_weight.resize(n_rays, zero);
         let (s, _) = sharpness(v);
-        let r = T::of(settings.cos_anneal_ratio);
-        let eps = T::of(settings.alpha_eps);
+        let r = T::from_f64(settings.cos_anneal_ratio);
+        let eps = T::from_f64(settings.alpha_eps);
         let chunks = ray_chunks(inputs.offsets);
         let alpha = split_mut(&mut self.alpha, chunks.iter().map(|c| c.samples.clone()));
         let weight = split_mut(&mut self.weight, chunks.iter().map(|c| c.samples.clone()));
@@ -279,7 +280,7 @@ impl<T: Scalar> NeusWeights<T> {
                 let base = chunk.samples.start;
                 for (ri, ray) in chunk.rays.clone().enumerate() {
                     let dir = inputs.ray_dirs[ray];
-                    let mut t = T::of(1.0);
+                    let mut t = T::from_f64(1.0);
                     let range = inputs.offsets[ray] as usize..inputs.offsets[ray + 1] as usize;
                     for k in range {
                         let slope = dot3(dir, inputs.sdf_grad[k]);
@@ -288,9 +289,9 @@ impl<T: Scalar> NeusWeights<T> {
                         alpha[l] = a;
                         weight[l] = t * a;
                         trans[l] = t;
-                        t = t * (T::of(1.0) - a);
+                        t *= T::from_f64(1.0) - a;
                     }
-                    acc[ri] = T::of(1.0) - t;
+                    acc[ri] = T::from_f64(1.0) - t;
                 }
             });
     }
@@ -331,8 +332,8 @@ impl<T: Scalar> NeusWeights<T> {
             assert_eq!(d.len(), inputs.ray_dirs.len());
         }
         let (s, ds_dv) = sharpness(v);
-        let r = T::of(settings.cos_anneal_ratio);
-        let eps = T::of(settings.alpha_eps);
+        let r = T::from_f64(settings.cos_anneal_ratio);
+        let eps = T::from_f64(settings.alpha_eps);
         let chunks = ray_chunks(inputs.offsets);
         let d_sdf = split_mut(d_sdf, chunks.iter().map(|c| c.samples.clone()));
         let d_grad = split_mut(d_sdf_grad, chunks.iter().map(|c| c.samples.clone()));
@@ -342,19 +343,19 @@ impl<T: Scalar> NeusWeights<T> {
             .zip(d_grad)
             .map(|((chunk, d_sdf), d_grad)| {
                 let base = chunk.samples.start;
-                let mut d_s = T::of(0.0);
+                let mut d_s = T::from_f64(0.0);
                 for ray in chunk.rays.clone() {
                     let dir = inputs.ray_dirs[ray];
-                    let g_acc = d_acc_weight.map_or(T::of(0.0), |d| d[ray]);
+                    let g_acc = d_acc_weight.map_or(T::from_f64(0.0), |d| d[ray]);
                     let range = inputs.offsets[ray] as usize..inputs.offsets[ray + 1] as usize;
                     // R_k = Σ_{i>k} alpha_i Π_{k<j<i}(1 − alpha_j) g_i, so that
                     // ∂L/∂alpha_k = T_k (g_k − R_k) without dividing by 1 − alpha_k.
-                    let mut rest = T::of(0.0);
+                    let mut rest = T::from_f64(0.0);
                     for k in range.rev() {
                         let g = d_weight[k] + g_acc;
                         let a = self.alpha[k];
                         let d_alpha = self.transmittance[k] * (g - rest);
-                        rest = a * g + (T::of(1.0) - a) * rest;
+                        rest = a * g + (T::from_f64(1.0) - a) * rest;
                         let slope = dot3(dir, inputs.sdf_grad[k]);
                         let p = alpha_partials(inputs.sdf[k], slope, inputs.delta[k], s, r, eps);
                         let l = k - base;
@@ -369,7 +370,7 @@ impl<T: Scalar> NeusWeights<T> {
                 d_s
             })
             .collect();
-        let mut d_s = T::of(0.0);
+        let mut d_s = T::from_f64(0.0);
         for x in d_s_chunks {
             d_s += x;
         }

@@ -4,15 +4,15 @@
 //! direction, or the view direction reflected about the normal, which depends
 //! on the SDF and so needs [`sh_deg4_jacobian`]).
 
-use crate::real::Scalar;
+use wildlight_real::Real;
 
 /// Number of values of [`sh_deg4`].
 pub const SH_DEG4_LEN: usize = 16;
 
 /// The 16 real SH basis values of unit direction `d` (bands l = 0..3).
 #[inline]
-pub fn sh_deg4<T: Scalar>(d: [T; 3]) -> [T; SH_DEG4_LEN] {
-    let c = |v: f64| T::of(v);
+pub fn sh_deg4<T: Real>(d: [T; 3]) -> [T; SH_DEG4_LEN] {
+    let c = |v: f64| T::from_f64(v);
     let [x, y, z] = d;
     let (xx, yy, zz) = (x * x, y * y, z * z);
     [
@@ -42,9 +42,9 @@ pub fn sh_deg4<T: Scalar>(d: [T; 3]) -> [T; SH_DEG4_LEN] {
 /// ∂Y_i/∂d_j of [`sh_deg4`] at `d` (the polynomials differentiated as they
 /// are, without renormalising `d`): row i is the gradient of value i.
 #[inline]
-pub fn sh_deg4_jacobian<T: Scalar>(d: [T; 3]) -> [[T; 3]; SH_DEG4_LEN] {
-    let c = |v: f64| T::of(v);
-    let z0 = T::of(0.0);
+pub fn sh_deg4_jacobian<T: Real>(d: [T; 3]) -> [[T; 3]; SH_DEG4_LEN] {
+    let c = |v: f64| T::from_f64(v);
+    let z0 = T::from_f64(0.0);
     let [x, y, z] = d;
     let (xx, yy, zz) = (x * x, y * y, z * z);
     let (k1, k2a, k2b, k2c) = (
@@ -95,7 +95,7 @@ pub fn sh_deg4_jacobian<T: Scalar>(d: [T; 3]) -> [[T; 3]; SH_DEG4_LEN] {
 }
 
 /// Encodes each direction of `dirs` into `out` (16 values per direction).
-pub fn sh_deg4_batch<T: Scalar>(dirs: &[[T; 3]], out: &mut [[T; SH_DEG4_LEN]]) {
+pub fn sh_deg4_batch<T: Real>(dirs: &[[T; 3]], out: &mut [[T; SH_DEG4_LEN]]) {
     assert_eq!(dirs.len(), out.len(), "sh_deg4_batch: length mismatch");
     for (o, &d) in out.iter_mut().zip(dirs) {
         *o = sh_deg4(d);

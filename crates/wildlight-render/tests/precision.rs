@@ -6,11 +6,11 @@ mod common;
 
 use common::{Torus, camera_rays};
 use wildlight_material::BrdfSettings;
+use wildlight_real::Real;
 use wildlight_render::composite::{composite, composite_backward};
 use wildlight_render::flash::{FlashCache, FlashInputs, flash_backward, flash_forward};
 use wildlight_render::neus::{NeusInputs, NeusSettings, NeusWeights};
 use wildlight_render::occupancy::{OccupancyGrid, OccupancySettings, RefreshMode};
-use wildlight_render::real::Scalar;
 use wildlight_render::sampler::{RaySamples, Rays};
 
 struct Outputs {
@@ -23,8 +23,8 @@ struct Outputs {
     d_gain: f64,
 }
 
-fn run<T: Scalar>(torus: Torus, dirs: &[[f32; 3]], samples: &RaySamples, v: f64) -> Outputs {
-    let cast = |x: f64| T::of(x);
+fn run<T: Real>(torus: Torus, dirs: &[[f32; 3]], samples: &RaySamples, v: f64) -> Outputs {
+    let cast = |x: f64| T::from_f64(x);
     let n = samples.len();
     let (sdf, grad, colours) = torus.fields_at(&samples.positions);
     let sdf: Vec<T> = sdf.into_iter().map(cast).collect();
@@ -54,34 +54,34 @@ fn run<T: Scalar>(torus: Torus, dirs: &[[f32; 3]], samples: &RaySamples, v: f64)
         sdf_grad: &grad,
         params: &theta,
     };
-    let mut flash = vec![[T::of(0.0); 3]; n];
+    let mut flash = vec![[T::from_f64(0.0); 3]; n];
     let brdf = BrdfSettings::default();
     let mut cache = FlashCache::new();
-    flash_forward(&finp, T::of(0.1), &brdf, &mut flash, Some(&mut cache));
+    flash_forward(&finp, T::from_f64(0.1), &brdf, &mut flash, Some(&mut cache));
     for (ck, f) in c.iter_mut().zip(&flash) {
         for i in 0..3 {
             ck[i] += f[i];
         }
     }
-    let mut col = vec![[T::of(0.0); 3]; dirs.len()];
+    let mut col = vec![[T::from_f64(0.0); 3]; dirs.len()];
     composite(offsets, &w.weight, &c, &mut col);
-    let d_col = vec![[T::of(1.0), T::of(-0.5), T::of(0.25)]; dirs.len()];
-    let d_acc = vec![T::of(0.3); dirs.len()];
-    let mut d_w = vec![T::of(0.0); n];
-    let mut d_c = vec![[T::of(0.0); 3]; n];
+    let d_col = vec![[T::from_f64(1.0), T::from_f64(-0.5), T::from_f64(0.25)]; dirs.len()];
+    let d_acc = vec![T::from_f64(0.3); dirs.len()];
+    let mut d_w = vec![T::from_f64(0.0); n];
+    let mut d_c = vec![[T::from_f64(0.0); 3]; n];
     composite_backward(offsets, &w.weight, &c, &d_col, &mut d_w, Some(&mut d_c));
-    let mut d_theta = vec![[T::of(0.0); 9]; n];
-    let mut d_grad = vec![[T::of(0.0); 3]; n];
+    let mut d_theta = vec![[T::from_f64(0.0); 9]; n];
+    let mut d_grad = vec![[T::from_f64(0.0); 3]; n];
     let d_gain = flash_backward(
         &finp,
-        T::of(0.1),
+        T::from_f64(0.1),
         &brdf,
         Some(&cache),
         &d_c,
         &mut d_theta,
         &mut d_grad,
     );
-    let mut d_sdf = vec![T::of(0.0); n];
+    let mut d_sdf = vec![T::from_f64(0.0); n];
     let d_v = w.backward(
         &ninp,
         cast(v),

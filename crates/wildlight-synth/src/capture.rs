@@ -16,8 +16,8 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use wildlight_data::{Camera, DatasetWriter};
 use wildlight_material::{BrdfSettings, PARAM_COUNT};
 use wildlight_mesh::TriMesh;
+use wildlight_pathtrace::EnvMap;
 
-use crate::env_map::EnvMap;
 use crate::error::SynthError;
 use crate::ground_truth::{GroundTruthMaterial, MaterialDefinition};
 use crate::mesher::mesh_sdf;

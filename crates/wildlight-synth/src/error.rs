@@ -36,13 +36,8 @@ pub enum SynthError {
         problem: String,
     },
     /// An environment map could not be read.
-    #[error("{path}: cannot read environment map: {problem}")]
-    EnvMap {
-        /// The image file.
-        path: PathBuf,
-        /// What went wrong.
-        problem: String,
-    },
+    #[error(transparent)]
+    EnvMap(#[from] wildlight_pathtrace::EnvMapError),
     /// A material definition (`gt/material.json` or `--material`) is invalid.
     #[error("{source_name}: invalid material definition: {problem}")]
     Material {

@@ -3,8 +3,9 @@
 //! A capture is an object (a built-in procedural scene meshed from its
 //! signed distance function, or a mesh file), a spatially varying material
 //! given as a function of position, a ring of cameras, an environment light
-//! integrated by Monte Carlo with shadows ([`general_brdf`], [`render`]),
-//! and for flash views the exact flash term of SPEC §2. The output is a
+//! integrated by Monte Carlo with shadows, and for flash views the exact
+//! flash term of SPEC §2 ([`render`], shading with the path tracer of
+//! `wildlight-pathtrace`). The output is a
 //! dataset folder in the layout of SPEC §5 with per-view ground-truth maps,
 //! the ground-truth meshes and `gt/material.json`, from which
 //! [`GroundTruthMaterial`] evaluates the true material at any point.
@@ -19,12 +20,8 @@
 // `!(x > 0.0)` is used on purpose: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod brdf_sampling;
-pub mod bvh;
 pub mod capture;
-pub mod env_map;
 pub mod error;
-pub mod general_brdf;
 pub mod ground_truth;
 pub mod mesher;
 pub mod render;
@@ -35,12 +32,8 @@ pub mod sdf;
 pub use capture::{
     CaptureSummary, DEFAULT_SATURATION, SceneSource, SynthOptions, scene_mesh, synthesize,
 };
-pub use env_map::EnvMap;
 pub use error::SynthError;
 pub use ground_truth::{GroundTruthMaterial, MaterialDefinition};
-pub use render::{
-    RenderScene, ShadingSettings, SurfacePoint, ViewImages, ambient_radiance, flash_term,
-    render_view,
-};
+pub use render::{RenderScene, ShadingSettings, ViewImages, render_view};
 pub use rig::{RigOptions, RigView, Split};
 pub use scenes::BuiltinScene;

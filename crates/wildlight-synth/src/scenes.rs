@@ -10,6 +10,7 @@
 
 use glam::DVec3;
 use wildlight_material::Material;
+use wildlight_pathtrace::hash64;
 
 use crate::sdf::{
     capsule, cylinder_x, cylinder_z, round_box, smooth_intersect, smooth_subtract, smooth_union,
@@ -338,14 +339,6 @@ fn sampler_material(p: DVec3) -> Material {
 }
 
 // --------------------------------------------------------------- patches --
-
-/// A 64-bit mix of integers (SplitMix64 finaliser).
-pub(crate) fn hash64(mut x: u64) -> u64 {
-    x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    x ^ (x >> 31)
-}
 
 /// Generic material for any mesh: space is cut into cubes of side 0.25 and
 /// each cube gets its own material drawn from a hash of its index, about a

@@ -9,7 +9,7 @@ use glam::DVec3;
 use wildlight_data::exr_io::{read_exr_channels, read_exr_rgb};
 use wildlight_data::{Dataset, LoadOptions, RgbImage};
 use wildlight_mesh::TriMesh;
-use wildlight_synth::general_brdf;
+use wildlight_pathtrace::general_brdf;
 use wildlight_synth::{
     BuiltinScene, GroundTruthMaterial, RenderScene, RigOptions, SceneSource, SynthOptions,
     synthesize,

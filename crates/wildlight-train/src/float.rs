@@ -1,15 +1,15 @@
 //! The float type the model runs on: `f32` in training, `f64` in gradient
-//! checks. It must satisfy the field kernels' and the renderer's traits.
+//! checks. It is the one scalar trait of every kernel of the pipeline
+//! ([`wildlight_real::Real`]); the functions here are the trainer's
+//! shorthands over it.
 
 /// A float usable by every kernel of the pipeline.
-pub trait Float: wildlight_fields::Real + wildlight_render::Scalar {}
+pub use wildlight_real::Real as Float;
 
-impl<T: wildlight_fields::Real + wildlight_render::Scalar> Float for T {}
-
-/// √x (the two kernel traits both define it; this picks one).
+/// √x.
 #[inline(always)]
 pub fn sqrt<T: Float>(x: T) -> T {
-    wildlight_fields::Real::sqrt(x)
+    x.sqrt()
 }
 
 /// The larger of two values.
@@ -21,7 +21,7 @@ pub fn max<T: Float>(a: T, b: T) -> T {
 /// Converts from `f64`.
 #[inline(always)]
 pub fn of<T: Float>(v: f64) -> T {
-    wildlight_fields::Real::from_f64(v)
+    T::from_f64(v)
 }
 
 /// a·b.
@@ -73,11 +73,11 @@ pub fn sign<T: Float>(x: T) -> T {
 /// Whether `v` is neither infinite nor NaN.
 #[inline(always)]
 pub fn finite<T: Float>(v: T) -> bool {
-    wildlight_fields::Real::to_f64(v).is_finite()
+    v.to_f64().is_finite()
 }
 
 /// Converts to `f64`.
 #[inline(always)]
 pub fn to_f64<T: Float>(v: T) -> f64 {
-    wildlight_fields::Real::to_f64(v)
+    v.to_f64()
 }

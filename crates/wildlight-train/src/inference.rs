@@ -12,8 +12,7 @@ use anyhow::Context;
 use std::path::Path;
 use wildlight_data::exr_io::{write_exr_channels, write_exr_rgb};
 use wildlight_data::writer::indexed_file_name;
-use wildlight_data::{Camera, RgbImage};
-use wildlight_export::ViewMaps;
+use wildlight_data::{Camera, RgbImage, ViewMaps};
 use wildlight_fields::{Checkpoint, FieldContext};
 use wildlight_render::{OccupancyGrid, RefreshMode, Sampler};
 

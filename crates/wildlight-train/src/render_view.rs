@@ -4,8 +4,7 @@
 
 use crate::model::Model;
 use crate::pipeline::{PassSettings, Pipeline, RayInputs};
-use wildlight_data::Camera;
-use wildlight_export::ViewMaps;
+use wildlight_data::{Camera, ViewMaps};
 use wildlight_material::PARAM_COUNT;
 use wildlight_render::{OccupancyGrid, composite};
 

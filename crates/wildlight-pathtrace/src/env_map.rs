@@ -13,7 +13,7 @@ use std::path::Path;
 
 use glam::DVec3;
 
-use crate::error::SynthError;
+use crate::error::EnvMapError;
 
 /// An equirectangular environment map ready for sampling.
 #[derive(Clone, Debug)]
@@ -103,8 +103,8 @@ impl EnvMap {
     }
 
     /// Reads an equirectangular `.exr` or `.hdr` file (by extension).
-    pub fn load(path: &Path) -> Result<EnvMap, SynthError> {
-        let err = |problem: String| SynthError::EnvMap {
+    pub fn load(path: &Path) -> Result<EnvMap, EnvMapError> {
+        let err = |problem: String| EnvMapError {
             path: path.to_path_buf(),
             problem,
         };

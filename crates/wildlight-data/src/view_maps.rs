@@ -1,8 +1,8 @@
 //! The per-view maps of a rendering — image, flash and ambient terms,
 //! normal, depth, accumulated weight and material parameters — as both
 //! renderers produce them: a trained run's (`wildlight-train`) and an
-//! exported asset's ([`crate::AssetTracer::render_view`]). One type, so that
-//! both are written by the same code in the same layout
+//! exported asset's (`wildlight_export::AssetTracer::render_view`). One
+//! type, so that both are written by the same code in the same layout
 //! (docs/conventions.md).
 
 use wildlight_material::PARAM_COUNT;

@@ -361,11 +361,9 @@ fn build(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesher::mesh_sdf;
-    use crate::sdf::sphere;
 
     fn sphere_bvh() -> Bvh {
-        let mesh = mesh_sdf(&|p| sphere(p, 0.5), 0.7, 40);
+        let mesh = crate::test_sphere(0.5);
         let pos: Vec<DVec3> = mesh.positions.iter().map(|p| p.as_dvec3()).collect();
         Bvh::new(&pos, &mesh.triangles)
     }
