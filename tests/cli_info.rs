@@ -97,7 +97,7 @@ fn table_is_readable() {
 }
 
 #[test]
-fn warnings_for_a_capture_without_flash_or_masks() {
+fn a_warning_without_flash_and_a_note_without_masks() {
     let dir = tempfile::tempdir().unwrap();
     // The Mitsuba cameras and images, with every light_energy removed and no masks.
     std::fs::create_dir(dir.path().join("image")).unwrap();
@@ -126,9 +126,12 @@ fn warnings_for_a_capture_without_flash_or_masks() {
             .any(|w| w.contains("reflectance cannot be separated")),
         "{warnings:?}"
     );
+    let notes: Vec<String> = serde_json::from_value(j["notes"].clone()).unwrap();
     assert!(
-        warnings.iter().any(|w| w.contains("images without masks")),
-        "{warnings:?}"
+        notes
+            .iter()
+            .any(|n| n.contains("no masks: training will model the background")),
+        "{notes:?}"
     );
 }
 

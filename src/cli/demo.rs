@@ -150,6 +150,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         resume: false,
         resume_iters: None,
         progress,
+        masks: Default::default(),
     })?;
 
     eprintln!("3/5 rendering the held-out views …");

@@ -4,12 +4,12 @@ use anyhow::Context;
 use std::path::PathBuf;
 use wildlight_train::TrainConfig;
 use wildlight_train::config::parse_duration;
-use wildlight_train::run::{RunOptions, planned_iters, resumed_config, train};
+use wildlight_train::run::{MaskChoice, RunOptions, planned_iters, resumed_config, train};
 
 /// Options of `wildlight train`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Capture folder (SPEC §5 layout; masks required)
+    /// Capture folder (SPEC §5 layout; without masks, the background is modelled, SPEC §6)
     /// [default with --resume: the capture recorded in RUN/run.json].
     #[arg(long, value_name = "DIR", required_unless_present_any = ["resume", "print_config"])]
     pub data: Option<PathBuf>,
@@ -47,9 +47,23 @@ pub struct Args {
     /// step count (--iters may raise it, not lower it).
     #[arg(long)]
     pub resume: bool,
+    /// Whether to train with the capture's masks: `use` (an error when it has none) or
+    /// `ignore` (train as if it had none: the background is modelled, SPEC §6)
+    /// [default: the masks when the capture has them; with --resume, the run's own].
+    #[arg(long, value_name = "use|ignore")]
+    pub masks: Option<MasksArg>,
     /// No progress bar (there is none either when stderr is not a terminal).
     #[arg(long)]
     pub quiet: bool,
+}
+
+/// The values of `--masks`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MasksArg {
+    /// Train with the capture's masks.
+    Use,
+    /// Train as if the capture had no masks.
+    Ignore,
 }
 
 /// The comment that heads `--print-config`'s output.
@@ -91,6 +105,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         resume: args.resume,
         resume_iters: args.iters,
         progress: !args.quiet && std::io::IsTerminal::is_terminal(&std::io::stderr()),
+        masks: match args.masks {
+            None => MaskChoice::Auto,
+            Some(MasksArg::Use) => MaskChoice::Use,
+            Some(MasksArg::Ignore) => MaskChoice::Ignore,
+        },
     })?;
     let last = summary.last.as_ref();
     eprintln!(

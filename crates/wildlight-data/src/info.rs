@@ -99,6 +99,9 @@ pub struct DatasetInfo {
     pub val_cameras: Vec<CameraInfo>,
     /// Problems a user should know about before training.
     pub warnings: Vec<String>,
+    /// How training will treat the capture, where it is not the usual way
+    /// (no masks: the background is modelled).
+    pub notes: Vec<String>,
 }
 
 fn camera_infos(data: &Dataset) -> Vec<CameraInfo> {
@@ -193,11 +196,9 @@ impl DatasetInfo {
             .filter(|c| c.mask_coverage.is_none())
             .map(|c| c.index)
             .collect();
+        let mut notes = Vec::new();
         if unmasked.len() == cameras.len() {
-            warnings.push(
-                "images without masks (no mask/ folder): the background must be modelled (SPEC §6), which is slower and less accurate"
-                    .to_string(),
-            );
+            notes.push("no masks: training will model the background (SPEC §6)".to_string());
         } else if !unmasked.is_empty() {
             warnings.push(format!("images without masks: {}", list(&unmasked)));
         }
@@ -235,6 +236,7 @@ impl DatasetInfo {
             cameras,
             val_cameras,
             warnings,
+            notes,
         }
     }
 
@@ -325,6 +327,9 @@ impl DatasetInfo {
                         .map_or("-".to_string(), |m| format!("{:.1}%", 100.0 * m)),
                 );
             }
+        }
+        for n in &self.notes {
+            let _ = writeln!(s, "\nnote: {n}");
         }
         if !self.warnings.is_empty() {
             let _ = writeln!(s, "\nwarnings:");

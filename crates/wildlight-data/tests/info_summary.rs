@@ -114,11 +114,19 @@ fn warns_about_missing_flash() {
 }
 
 #[test]
-fn warns_about_missing_masks() {
-    let w = warnings(true, false, 3.0);
+fn notes_that_without_masks_the_background_is_modelled() {
+    let dir = tempfile::tempdir().unwrap();
+    write_dataset(dir.path(), true, false, 3.0);
+    let data = Dataset::load(dir.path(), &LoadOptions::default()).unwrap();
+    let info = DatasetInfo::from_dataset(&data);
     assert!(
-        w.iter().any(|s| s.contains("images without masks")),
-        "{w:?}"
+        info.warnings.is_empty(),
+        "no masks is no warning: {:?}",
+        info.warnings
+    );
+    assert_eq!(
+        info.notes,
+        ["no masks: training will model the background (SPEC §6)"]
     );
 }
 

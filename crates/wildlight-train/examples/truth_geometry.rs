@@ -49,7 +49,7 @@ use wildlight_material::{PARAM_COUNT, PARAM_NAMES};
 use wildlight_synth::scenes::BuiltinScene;
 use wildlight_train::config::TrainConfig;
 use wildlight_train::rays::TrainingRays;
-use wildlight_train::run::{CHECKPOINT_FILE, load_capture, write_run_files};
+use wildlight_train::run::{CHECKPOINT_FILE, MaskMode, load_capture, write_run_files};
 use wildlight_train::trainer::Trainer;
 
 /// Fitting points drawn once.
@@ -106,7 +106,7 @@ fn main() -> Result<()> {
     }
     trainer.refresh_grid();
 
-    write_run_files(run, &config, capture)?;
+    write_run_files(run, &config, capture, MaskMode::Used)?;
     trainer.save_checkpoint(&run.join(CHECKPOINT_FILE))?;
     println!("wrote {} (step 0, the true SDF)", run.display());
     Ok(())

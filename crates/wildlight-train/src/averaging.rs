@@ -26,6 +26,10 @@ fn arrays(model: &Model) -> Vec<&[f32]> {
         out.push(&room.grid.params);
         out.push(&room.mlp.params);
     }
+    if let Some(bg) = &model.background {
+        out.push(&bg.grid.params);
+        out.push(&bg.mlp.params);
+    }
     out
 }
 
@@ -42,6 +46,10 @@ fn arrays_mut(model: &mut Model) -> Vec<&mut [f32]> {
     if let Some(room) = &mut model.room {
         out.push(&mut room.grid.params);
         out.push(&mut room.mlp.params);
+    }
+    if let Some(bg) = &mut model.background {
+        out.push(&mut bg.grid.params);
+        out.push(&mut bg.mlp.params);
     }
     out
 }

@@ -287,6 +287,7 @@ field_table_with_defaults!(
     material_table => material,
     ambient_table => ambient,
     ambient_room_table => ambient_room,
+    background_table => background,
 );
 
 impl FieldSize {
@@ -346,6 +347,10 @@ pub struct ModelConfig {
     /// [`AmbientModel::NeuralRoom`], whose grid encodes ω on the unit sphere.
     #[serde(deserialize_with = "ambient_room_table")]
     pub ambient_room: FieldSize,
+    /// The background field's size (runs without masks, SPEC §6): its grid
+    /// encodes the contracted point u = (x/|x|)(2 − 1/|x|) over [−2, 2]³.
+    #[serde(deserialize_with = "background_table")]
+    pub background: FieldSize,
 }
 
 /// The form of the ambient term a_k (SPEC §2 names its inputs: geometry
@@ -421,6 +426,15 @@ impl Default for ModelConfig {
                 hidden: vec![],
                 interpolation: Default::default(),
             },
+            background: FieldSize {
+                levels: 12,
+                features_per_level: 2,
+                log2_table_size: 15,
+                base_resolution: 4,
+                finest_resolution: 512,
+                hidden: vec![32],
+                interpolation: Default::default(),
+            },
         }
     }
 }
@@ -453,6 +467,10 @@ pub struct SamplingConfig {
     pub max_coarse: usize,
     /// Importance (fine) samples per ray.
     pub fine_samples: usize,
+    /// Background samples per ray beyond the unit sphere (runs without masks; ≥ 2).
+    pub background_samples: usize,
+    /// Radius of the farthest background sample, in radii of the unit sphere (> 1).
+    pub background_far_radius: f64,
 }
 
 impl Default for SamplingConfig {
@@ -463,6 +481,8 @@ impl Default for SamplingConfig {
             coarse_steps_per_cell: 2.0,
             max_coarse: 48,
             fine_samples: 8,
+            background_samples: 32,
+            background_far_radius: 1000.0,
         }
     }
 }
@@ -498,6 +518,14 @@ impl SamplingConfig {
         wildlight_render::OccupancySettings {
             resolution: self.grid_resolution,
             ..wildlight_render::OccupancySettings::default()
+        }
+    }
+
+    /// The background's sampling (runs without masks).
+    pub fn background(&self) -> wildlight_render::BackgroundSettings {
+        wildlight_render::BackgroundSettings {
+            samples: self.background_samples,
+            far_radius: self.background_far_radius,
         }
     }
 
@@ -637,6 +665,17 @@ impl TrainConfig {
         }
         if model.init_material.iter().any(|v| !(*v > 0.0 && *v < 1.0)) {
             return bad("model.init_material", "every value must be in (0, 1)");
+        }
+        if self.sampling.background_samples < 2 {
+            return bad("sampling.background_samples", "must be at least 2");
+        }
+        if !(self.sampling.background_far_radius.is_finite()
+            && self.sampling.background_far_radius > 1.0)
+        {
+            return bad(
+                "sampling.background_far_radius",
+                "must be finite and > 1 (radii of the unit sphere)",
+            );
         }
         if self.sampling.grid_refresh_every == 0 {
             return bad("sampling.grid_refresh_every", "must be at least 1");

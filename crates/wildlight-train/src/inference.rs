@@ -37,7 +37,12 @@ impl TrainedRun {
         let ckpt_path = run.join(CHECKPOINT_FILE);
         let ck = Checkpoint::load(&ckpt_path)
             .with_context(|| format!("cannot read the checkpoint {}", ckpt_path.display()))?;
-        let mut model = Model::new(&config.model, config.seed)?;
+        // A run without masks modelled the background (SPEC §6).
+        let mut model = if info.masks.maskless() {
+            Model::with_background(&config.model, config.seed)?
+        } else {
+            Model::new(&config.model, config.seed)?
+        };
         // A run that averaged its parameters renders their mean (when the
         // average holds any yet: a snapshot from before its start has none).
         let averaged = config.optim.average_from < 1.0 && ck.metadata(AVERAGE_COUNT).is_some();
@@ -51,12 +56,14 @@ impl TrainedRun {
             RefreshMode::Full,
         );
         let sampler = Sampler::new(config.sampling.sampler())?;
+        let mut pipeline = Pipeline::new(sampler);
+        pipeline.background_settings = config.sampling.background();
         Ok(Self {
             config,
             info,
             model,
             grid,
-            pipeline: Pipeline::new(sampler),
+            pipeline,
         })
     }
 
@@ -89,7 +96,8 @@ fn to_image(w: u32, h: u32, px: impl Iterator<Item = [f32; 3]>) -> RgbImage {
 }
 
 /// Writes every map of `maps` as `out/<kind>/NNN.exr` (kinds of the
-/// conventions: image, flash, ambient, normal, depth (world units),
+/// conventions: image, flash, ambient (for a run without masks these three
+/// show the background too), normal, depth (world units),
 /// base_color, roughness, metallic, params (9 channels), acc).
 pub fn write_view_maps(
     out: &Path,

@@ -9,6 +9,8 @@
 //! - [`rays`]: drawing training rays across all images;
 //! - [`pipeline`]: one differentiable pass over a batch of rays;
 //! - [`ambient`]: the ambient term of a pass, in its two forms;
+//! - [`background`]: the background beyond the unit sphere of a run without
+//!   masks (SPEC §6);
 //! - [`loss`]: the losses of SPEC §4;
 //! - [`smoothness`]: a smoothness prior on the material field;
 //! - [`normal_smoothness`]: a smoothness prior on the normals;
@@ -23,6 +25,7 @@
 
 pub mod ambient;
 pub mod averaging;
+pub mod background;
 pub mod config;
 pub mod float;
 pub mod inference;

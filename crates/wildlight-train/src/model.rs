@@ -3,6 +3,7 @@
 //! gradient buffers and optimiser groups.
 
 use crate::ambient::ambient_extra_inputs;
+use crate::background::{BACKGROUND_EXTRA, BACKGROUND_OUTPUTS, background_init_bias};
 use crate::config::{AmbientModel, FieldSize, ModelConfig, ROOM_FEATURES};
 use crate::float::{Float, finite};
 use wildlight_fields::{
@@ -30,6 +31,10 @@ pub struct Model<T = f32> {
     pub sharpness: T,
     /// Flash gain parameter g, γ = exp(g) > 0.
     pub log_gain: T,
+    /// The scene beyond the unit sphere (`crate::background`): σ, a, ρ of
+    /// the contracted point and the view direction; only in runs without
+    /// masks (SPEC §6).
+    pub background: Option<NeuralField<T>>,
 }
 
 /// Gradients of every parameter of a [`Model`].
@@ -47,6 +52,8 @@ pub struct ModelGrads<T = f32> {
     pub sharpness: T,
     /// Of g.
     pub log_gain: T,
+    /// Of the background field, when the model has one.
+    pub background: Option<FieldGrads<T>>,
 }
 
 impl<T: Float> ModelGrads<T> {
@@ -56,6 +63,9 @@ impl<T: Float> ModelGrads<T> {
         self.material.zero();
         self.ambient.zero();
         if let Some(g) = &mut self.room {
+            g.zero();
+        }
+        if let Some(g) = &mut self.background {
             g.zero();
         }
         self.sharpness = T::ZERO;
@@ -69,6 +79,7 @@ impl<T: Float> ModelGrads<T> {
             && f(&self.material)
             && f(&self.ambient)
             && self.room.as_ref().is_none_or(f)
+            && self.background.as_ref().is_none_or(f)
             && finite(self.sharpness)
             && finite(self.log_gain)
     }
@@ -134,8 +145,18 @@ fn set_output_bias<T: Float>(field: &mut NeuralField<T>, bias: &[f64]) -> anyhow
 }
 
 impl<T: Float> Model<T> {
-    /// A freshly initialised model (the SDF starts as a sphere).
+    /// A freshly initialised model (the SDF starts as a sphere), without a
+    /// background (a run with masks).
     pub fn new(config: &ModelConfig, seed: u64) -> anyhow::Result<Self> {
+        Self::build(config, seed, false)
+    }
+
+    /// [`Model::new`] with a background field (a run without masks, SPEC §6).
+    pub fn with_background(config: &ModelConfig, seed: u64) -> anyhow::Result<Self> {
+        Self::build(config, seed, true)
+    }
+
+    fn build(config: &ModelConfig, seed: u64, with_background: bool) -> anyhow::Result<Self> {
         let sdf = SdfField::new(&config.sdf_field(), seed)?;
         let mut material = grid_mlp_field(
             &config.material,
@@ -161,6 +182,27 @@ impl<T: Float> Model<T> {
                 seed.wrapping_add(3),
             )?),
         };
+        let background = if with_background {
+            let size = &config.background;
+            let mut field = NeuralField::new(
+                &NeuralFieldConfig {
+                    grid: size.grid(),
+                    // the contracted points fill the shell 1 ≤ |u| < 2
+                    bound: 2.0,
+                    include_position: false,
+                    n_extra: BACKGROUND_EXTRA,
+                    hidden: size.hidden.clone(),
+                    hidden_activation: Activation::Relu,
+                    n_output: BACKGROUND_OUTPUTS,
+                    output_activation: Activation::Softplus { beta: 1.0 },
+                },
+                seed.wrapping_add(4),
+            )?;
+            set_output_bias(&mut field, &background_init_bias())?;
+            Some(field)
+        } else {
+            None
+        };
         Ok(Self {
             config: config.clone(),
             sdf,
@@ -169,6 +211,7 @@ impl<T: Float> Model<T> {
             room,
             sharpness: T::from_f64(config.init_sharpness as f64),
             log_gain: T::from_f64(config.init_log_gain as f64),
+            background,
         })
     }
 
@@ -181,6 +224,7 @@ impl<T: Float> Model<T> {
             room: self.room.as_ref().map(|f| f.new_grads()),
             sharpness: T::ZERO,
             log_gain: T::ZERO,
+            background: self.background.as_ref().map(|f| f.new_grads()),
         }
     }
 
@@ -227,6 +271,7 @@ impl<T: Float> Model<T> {
             && f(&self.material)
             && f(&self.ambient)
             && self.room.as_ref().is_none_or(f)
+            && self.background.as_ref().is_none_or(f)
             && finite(self.sharpness)
             && finite(self.log_gain)
     }

@@ -6,6 +6,8 @@
 //!      → SDF field with finite-difference normals → NeuS weights w_k
 //!      → material field Θ_k, ambient field a_k, flash term f_k
 //!      → C = Σ w_k (a_k + f_k), Σ w_k
+//!      [→ C += (1 − Σ w_k) B: the background of a run without masks,
+//!         `crate::background`]
 //! ```
 //!
 //! The backward pass takes ∂L/∂C and ∂L/∂(Σw) per ray (and the eikonal
@@ -13,13 +15,15 @@
 //! Buffers are kept between calls; nothing is allocated per sample.
 
 use crate::ambient::{AmbientInputGrads, AmbientInputs, AmbientPass};
+use crate::background::BackgroundPass;
 use crate::float::{Float, finite, norm3, of, safe_norm3, to_f64, unit3, unit3_backward};
 use crate::model::{Model, ModelGrads};
 use wildlight_fields::{FdScheme, FieldContext, NormalContext};
 use wildlight_material::PARAM_COUNT;
 use wildlight_render::{
-    CoarseSamples, FlashCache, FlashInputs, NeusInputs, NeusSettings, NeusWeights, OccupancyGrid,
-    RaySamples, Rays, Sampler, composite, composite_backward, flash_backward, flash_forward,
+    BackgroundSettings, CoarseSamples, FlashCache, FlashInputs, NeusInputs, NeusSettings,
+    NeusWeights, OccupancyGrid, RaySamples, Rays, Sampler, composite, composite_backward,
+    flash_backward, flash_forward,
 };
 
 /// Radius of the ball in which the eikonal term applies (SPEC §4).
@@ -126,6 +130,11 @@ pub struct Pipeline<T = f32> {
     /// Mean eikonal residual (|∇φ| − 1)² over the points inside the ball.
     pub eikonal: f64,
     eikonal_count: usize,
+    /// How the background is sampled (a model with a background field).
+    pub background_settings: BackgroundSettings,
+    /// The background of the last pass (empty for a model without one).
+    pub background: BackgroundPass<T>,
+    d_acc_total: Vec<T>,
     // backward buffers
     d_weight: Vec<T>,
     d_colour_sample: Vec<[T; 3]>,
@@ -299,6 +308,22 @@ impl<T: Float + Default> Pipeline<T> {
             &mut self.colour,
         );
 
+        // The background behind the object (SPEC §6): C += (1 − Σw) B.
+        match &model.background {
+            Some(field) => self.background.forward(
+                field,
+                model.log_gain,
+                rays.origins,
+                rays.dirs,
+                rays.energy,
+                &self.background_settings,
+                settings.jitter_seed,
+                &self.weights.acc_weight,
+                &mut self.colour,
+            ),
+            None => self.background.clear(),
+        }
+
         // Eikonal residual over every point inside the ball (SPEC §4).
         let (mut sum, mut count) = (0.0f64, 0usize);
         for (p, g) in self.points.iter().zip(&ctx.gradient) {
@@ -362,6 +387,24 @@ impl<T: Float + Default> Pipeline<T> {
         let nf = model.config.geometry_features;
         let offsets = &self.samples.offsets;
         let ctx = &self.normal_ctx;
+
+        // The background: ∂L/∂(Σw) of its 1 − Σw joins the caller's.
+        self.d_acc_total.clear();
+        self.d_acc_total.extend_from_slice(d_acc);
+        if let Some(field) = &model.background {
+            grads.log_gain += self.background.backward(
+                field,
+                model.log_gain,
+                rays.energy,
+                &self.weights.acc_weight,
+                d_colour,
+                &mut self.d_acc_total,
+                grads
+                    .background
+                    .as_mut()
+                    .expect("gradients for the background field"),
+            );
+        }
 
         // C = Σ w_k c_k
         self.d_weight.clear();
@@ -459,7 +502,7 @@ impl<T: Float + Default> Pipeline<T> {
             model.sharpness,
             &neus,
             &self.d_weight,
-            Some(d_acc),
+            Some(&self.d_acc_total),
             &mut self.d_sdf[..n],
             &mut self.d_grad[..n],
         );

@@ -165,6 +165,22 @@ impl TrainingRays {
         }
     }
 
+    /// Forgets the capture's masks: every pixel then counts and is drawn
+    /// uniformly, as in a capture without masks (`--masks ignore`).
+    pub fn ignore_masks(&mut self) {
+        for v in &mut self.views {
+            v.mask = None;
+        }
+        self.foreground.clear();
+        self.silhouette.clear();
+        self.has_masks = false;
+    }
+
+    /// The camera of each view.
+    pub fn cameras(&self) -> impl Iterator<Item = &Camera> {
+        self.views.iter().map(|v| &v.camera)
+    }
+
     /// Draws each pixel of a flash image `weight` times as often as a pixel
     /// of a no-flash image, in every kind of draw (a view is a flash view
     /// when its flash energy is non-zero). A drawn pixel is kept with

@@ -1,6 +1,12 @@
 //! Rendering whole views of a trained model: the image and its maps
 //! (flash-only, ambient-only, normal, depth, accumulated weight and the
 //! material parameters), in ray chunks.
+//!
+//! A model with a background (a run without masks, SPEC §6) shows it in
+//! the image and splits it between the flash-only and ambient-only maps
+//! like the object (its flash term γ E ρ / t² to the flash map), so that
+//! image = flash + ambient still holds; the object's own maps (normal,
+//! depth, Σw, material) leave it out.
 
 use crate::model::Model;
 use crate::pipeline::{PassSettings, Pipeline, RayInputs};
@@ -67,12 +73,30 @@ fn append_maps(p: &Pipeline, n_rays: usize, maps: &mut ViewMaps) {
     let w = &p.weights.weight;
     let mut buf3 = vec![[0.0f32; 3]; n_rays];
     maps.rgb.extend_from_slice(&p.colour);
+    let acc = p.acc_weight();
+    let bg = &p.background;
+    let has_bg = bg.colour.len() == n_rays;
     composite(offsets, w, &p.flash, &mut buf3);
+    if has_bg {
+        // (1 − Σw) × the background's flash part, B − Σ_j w_j a_j
+        for (r, f) in buf3.iter_mut().enumerate() {
+            let (b, a) = (bg.colour[r], bg.ambient_colour[r]);
+            for (c, v) in f.iter_mut().enumerate() {
+                *v += (1.0 - acc[r]) * (b[c] - a[c]);
+            }
+        }
+    }
     maps.flash.extend_from_slice(&buf3);
     composite(offsets, w, &p.ambient, &mut buf3);
+    if has_bg {
+        for (r, a) in buf3.iter_mut().enumerate() {
+            for (v, b) in a.iter_mut().zip(bg.ambient_colour[r]) {
+                *v += (1.0 - acc[r]) * b;
+            }
+        }
+    }
     maps.ambient.extend_from_slice(&buf3);
     composite(offsets, w, &p.normals, &mut buf3);
-    let acc = p.acc_weight();
     for (nrm, a) in buf3.iter().zip(acc) {
         let len = (nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]).sqrt();
         maps.normal.push(if *a > 1e-3 && len > 1e-6 {

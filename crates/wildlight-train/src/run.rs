@@ -44,6 +44,152 @@ pub struct RunInfo {
     pub data: PathBuf,
     /// The wildlight version that created the run.
     pub version: String,
+    /// Whether the run trained with the capture's masks (absent in runs of
+    /// older versions, which all did).
+    #[serde(default)]
+    pub masks: MaskMode,
+}
+
+/// How a run used masks (`run.json`'s `masks`). A run without them models
+/// the background (SPEC §6): its model has a background field.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MaskMode {
+    /// Trained with the capture's masks.
+    #[default]
+    Used,
+    /// The capture has masks, and the run trained as if it had none.
+    Ignored,
+    /// The capture has no masks.
+    Absent,
+}
+
+impl MaskMode {
+    /// Whether the run trained without masks (and has a background).
+    pub fn maskless(self) -> bool {
+        self != MaskMode::Used
+    }
+}
+
+/// What `wildlight train --masks` asks for.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MaskChoice {
+    /// The capture's masks when it has them, else train without.
+    #[default]
+    Auto,
+    /// The capture's masks (an error when it has none).
+    Use,
+    /// Train as if the capture had no masks.
+    Ignore,
+}
+
+/// The mask mode of a new run on `dataset`.
+pub fn mask_mode(dataset: &Dataset, choice: MaskChoice) -> anyhow::Result<MaskMode> {
+    let with = dataset.views.iter().filter(|v| v.mask.is_some()).count();
+    let all = with == dataset.views.len();
+    Ok(match choice {
+        MaskChoice::Ignore if with > 0 => MaskMode::Ignored,
+        MaskChoice::Ignore => MaskMode::Absent,
+        MaskChoice::Use | MaskChoice::Auto if all => MaskMode::Used,
+        MaskChoice::Auto if with == 0 => MaskMode::Absent,
+        MaskChoice::Use if with == 0 => bail!(
+            "the capture has no masks (mask/NNN.png for every image), and --masks use asks for \
+             them; leave --masks out to train without masks (the background is then modelled, \
+             SPEC §6)"
+        ),
+        _ => bail!(
+            "{with} of the capture's {} images have a mask: --masks ignore trains without them \
+             (the background is then modelled, SPEC §6); with masks, every image needs one",
+            dataset.views.len()
+        ),
+    })
+}
+
+/// The training rays of `dataset` in the mask mode `mode`.
+pub fn training_rays(dataset: &Dataset, mode: MaskMode) -> TrainingRays {
+    let mut rays = TrainingRays::new(dataset);
+    if mode.maskless() {
+        rays.ignore_masks();
+    }
+    rays
+}
+
+/// The share of the image at which the unit sphere is said to fill a view
+/// (the synthetic rig's cameras, at 2.6 radii with a 40° field of view, see
+/// it cover 93 %).
+const SPHERE_FILLS_VIEW: f64 = 0.95;
+
+/// The share of camera `c`'s image (on a grid of 32 × 32 pixel positions)
+/// whose rays meet the unit sphere.
+fn sphere_coverage(c: &wildlight_data::Camera) -> f64 {
+    let n = 32;
+    let mut hits = 0;
+    for j in 0..n {
+        for i in 0..n {
+            let x = (i as f64 + 0.5) / n as f64 * c.width as f64 - 0.5;
+            let y = (j as f64 + 0.5) / n as f64 * c.height as f64 - 0.5;
+            let ray = c.ray(x, y);
+            let od = ray.origin.dot(ray.dir);
+            let b2 = ray.origin.length_squared() - od * od;
+            if od < 0.0 && b2 < 1.0 {
+                hits += 1;
+            }
+        }
+    }
+    hits as f64 / (n * n) as f64
+}
+
+/// Checks a capture for training without masks: the background lives
+/// beyond the unit sphere, so every camera must be outside it (an error
+/// naming those that are not). Returns the warnings: the sphere filling
+/// most of the views (little background seen, and the object's samples
+/// may then model it inside the sphere).
+pub fn check_maskless_capture(dataset: &Dataset) -> anyhow::Result<Vec<String>> {
+    let inside: Vec<String> = dataset
+        .views
+        .iter()
+        .filter(|v| v.camera.center.length() <= 1.0)
+        .map(|v| format!("{} (at {:.2})", v.camera.index, v.camera.center.length()))
+        .collect();
+    if !inside.is_empty() {
+        bail!(
+            "training without masks needs every camera outside the unit sphere (the background \
+             is modelled beyond it, SPEC §6), but {} of {} cameras are inside it, at these \
+             distances from its centre: {}; normalize the capture so that the sphere holds the \
+             object alone (scale_mat)",
+            inside.len(),
+            dataset.views.len(),
+            inside.join(", ")
+        );
+    }
+    let coverage: Vec<f64> = dataset
+        .views
+        .iter()
+        .map(|v| sphere_coverage(&v.camera))
+        .collect();
+    let filled = coverage.iter().filter(|c| **c > SPHERE_FILLS_VIEW).count();
+    let mut warnings = Vec::new();
+    if 2 * filled > coverage.len() {
+        let mean = coverage.iter().sum::<f64>() / coverage.len() as f64;
+        let dist: Vec<f64> = dataset
+            .views
+            .iter()
+            .map(|v| v.camera.center.length())
+            .collect();
+        let (near, far) = dist
+            .iter()
+            .fold((f64::MAX, 0.0f64), |(a, b), d| (a.min(*d), b.max(*d)));
+        warnings.push(format!(
+            "without masks: the unit sphere fills more than {:.0} % of the image in {filled} of {} \
+             views ({:.0} % on average; cameras at {near:.2} to {far:.2} sphere radii): the \
+             background is seen only around its edge, and what the sphere holds besides the \
+             object (a table, a wall) becomes surface; a smaller sphere (scale_mat) helps",
+            SPHERE_FILLS_VIEW * 100.0,
+            coverage.len(),
+            mean * 100.0
+        ));
+    }
+    Ok(warnings)
 }
 
 /// Options of a training run.
@@ -73,6 +219,9 @@ pub struct RunOptions {
     pub resume_iters: Option<u64>,
     /// Show a progress bar.
     pub progress: bool,
+    /// Whether to train with the capture's masks (with `resume`: `Auto`,
+    /// or the run's own mode).
+    pub masks: MaskChoice,
 }
 
 /// What a finished run reports.
@@ -96,8 +245,14 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
 }
 
 /// Creates the run folder `out` (with its `previews` folder) and writes its
-/// resolved configuration and the dataset it trains on (made absolute).
-pub fn write_run_files(out: &Path, config: &TrainConfig, data: &Path) -> anyhow::Result<()> {
+/// resolved configuration, the dataset it trains on (made absolute) and
+/// its mask mode.
+pub fn write_run_files(
+    out: &Path,
+    config: &TrainConfig,
+    data: &Path,
+    masks: MaskMode,
+) -> anyhow::Result<()> {
     std::fs::create_dir_all(out.join("previews"))
         .with_context(|| format!("cannot create {}", out.display()))?;
     let data_abs = std::fs::canonicalize(data).unwrap_or(data.to_path_buf());
@@ -107,6 +262,7 @@ pub fn write_run_files(out: &Path, config: &TrainConfig, data: &Path) -> anyhow:
         serde_json::to_string_pretty(&RunInfo {
             data: data_abs,
             version: env!("CARGO_PKG_VERSION").to_string(),
+            masks,
         })?
         .as_bytes(),
     )
@@ -165,13 +321,6 @@ pub fn resumed_config(run: &Path, iters: Option<u64>) -> anyhow::Result<(TrainCo
 pub fn load_capture(data: &Path) -> anyhow::Result<(Dataset, Vec<String>)> {
     let dataset = Dataset::load(data, &LoadOptions::default())
         .with_context(|| format!("cannot load the capture {}", data.display()))?;
-    if !dataset.has_masks() {
-        bail!(
-            "{}: the capture has no masks (mask/NNN.png for every image); training without masks \
-             (SPEC §6) is not available yet",
-            data.display()
-        );
-    }
     let mut warnings = Vec::new();
     if dataset.flash_count() == 0 {
         warnings.push(format!(
@@ -186,7 +335,7 @@ pub fn load_capture(data: &Path) -> anyhow::Result<(Dataset, Vec<String>)> {
 /// Trains (or resumes) a run.
 pub fn train(opts: &RunOptions) -> anyhow::Result<RunSummary> {
     let ckpt = opts.out.join(CHECKPOINT_FILE);
-    let (config, data) = if opts.resume {
+    let (config, data, recorded) = if opts.resume {
         let (config, info) = read_run(&opts.out)?;
         if !ckpt.exists() {
             bail!(
@@ -194,7 +343,27 @@ pub fn train(opts: &RunOptions) -> anyhow::Result<RunSummary> {
                 opts.out.display()
             );
         }
-        (config, opts.data.clone().unwrap_or(info.data))
+        let asked = match opts.masks {
+            MaskChoice::Auto => None,
+            MaskChoice::Use => Some(false),
+            MaskChoice::Ignore => Some(true),
+        };
+        if asked.is_some_and(|maskless| maskless != info.masks.maskless()) {
+            bail!(
+                "{}: the run trained {} masks, and a resumed run continues as it began",
+                opts.out.display(),
+                if info.masks.maskless() {
+                    "without"
+                } else {
+                    "with"
+                }
+            );
+        }
+        (
+            config,
+            opts.data.clone().unwrap_or(info.data),
+            Some(info.masks),
+        )
     } else {
         if ckpt.exists() {
             bail!(
@@ -206,14 +375,25 @@ pub fn train(opts: &RunOptions) -> anyhow::Result<RunSummary> {
             .data
             .clone()
             .context("--data is required for a new run")?;
-        (opts.config.clone(), data)
+        (opts.config.clone(), data, None)
     };
     config.validate().map_err(anyhow::Error::msg)?;
-    let (dataset, warnings) = load_capture(&data)?;
+    let (dataset, mut warnings) = load_capture(&data)?;
+    let masks = match recorded {
+        Some(MaskMode::Used) => mask_mode(&dataset, MaskChoice::Use)?,
+        Some(mode) => mode,
+        None => mask_mode(&dataset, opts.masks)?,
+    };
+    if masks.maskless() {
+        warnings.extend(
+            check_maskless_capture(&dataset)
+                .with_context(|| format!("the capture {}", data.display()))?,
+        );
+    }
     for w in &warnings {
         eprintln!("warning: {w}");
     }
-    let rays = TrainingRays::new(&dataset);
+    let rays = training_rays(&dataset, masks);
     let mut trainer = Trainer::new(config, rays)?;
     if opts.resume {
         trainer.load_checkpoint(&ckpt)?;
@@ -228,7 +408,7 @@ pub fn train(opts: &RunOptions) -> anyhow::Result<RunSummary> {
         trainer.set_iters(planned_iters(asked, opts.time_budget, own));
     }
     let config = trainer.config.clone();
-    write_run_files(&opts.out, &config, &data)?;
+    write_run_files(&opts.out, &config, &data, masks)?;
     let preview_view = dataset
         .val
         .as_ref()

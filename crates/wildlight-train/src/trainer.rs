@@ -104,6 +104,8 @@ struct Groups {
     gain: usize,
     /// The room's grid and MLP, when the model has one.
     room: Option<(usize, usize)>,
+    /// The background's grid and MLP, when the model has one.
+    background: Option<(usize, usize)>,
 }
 
 /// The state of a training run.
@@ -151,7 +153,8 @@ fn mix(seed: u64, step: u64, stream: u64) -> u64 {
 }
 
 impl Trainer {
-    /// A new run on the capture's rays.
+    /// A new run on the capture's rays: with masks when the rays have them,
+    /// else without, the model then with a background field (SPEC §6).
     pub fn new(config: TrainConfig, mut rays: TrainingRays) -> anyhow::Result<Self> {
         config.validate().map_err(anyhow::Error::msg)?;
         rays.set_silhouette_band(if config.silhouette_fraction > 0.0 {
@@ -160,7 +163,11 @@ impl Trainer {
             0
         });
         rays.set_flash_weight(config.flash_view_weight);
-        let model = Model::new(&config.model, config.seed)?;
+        let model = if rays.has_masks {
+            Model::new(&config.model, config.seed)?
+        } else {
+            Model::with_background(&config.model, config.seed)?
+        };
         let mut adam = Adam::new();
         let o = &config.optim;
         let (gf, mf) = (&o.grid_lr_factors, &o.mlp_lr_factors);
@@ -220,9 +227,14 @@ impl Trainer {
                 },
             ),
             room: None,
+            background: None,
         };
         if let Some(f) = &model.room {
             groups.room = Some(add_field(&mut adam, ROOM, f, gf.ambient, mf.ambient));
+        }
+        if let Some(f) = &model.background {
+            // at the ambient field's learning rates
+            groups.background = Some(add_field(&mut adam, BACKGROUND, f, gf.ambient, mf.ambient));
         }
         let grid = OccupancyGrid::new(config.sampling.occupancy())?;
         let sampler = Sampler::new(config.sampling.sampler())?;
@@ -242,6 +254,8 @@ impl Trainer {
             None
         };
         let average = (config.optim.average_from < 1.0).then(|| ParameterAverage::new(&model));
+        let mut pipeline = Pipeline::new(sampler);
+        pipeline.background_settings = config.sampling.background();
         let mut t = Self {
             average,
             model,
@@ -249,7 +263,7 @@ impl Trainer {
             lr_scale: 1.0,
             skipped_steps: 0,
             grid,
-            pipeline: Pipeline::new(sampler),
+            pipeline,
             smoothness: MaterialSmoothness::default(),
             normal_smoothness: NormalSmoothness::default(),
             binary_metallic: BinaryMetallic::default(),
@@ -657,6 +671,12 @@ impl Trainer {
             a.step(grid, &mut room.grid.params, &grads.grid, f);
             a.step(mlp, &mut room.mlp.params, &grads.mlp, f);
         }
+        if let (Some((grid, mlp)), Some(bg), Some(grads)) =
+            (gr.background, &mut m.background, &g.background)
+        {
+            a.step(grid, &mut bg.grid.params, &grads.grid, f);
+            a.step(mlp, &mut bg.mlp.params, &grads.mlp, f);
+        }
         let mut v = [m.sharpness];
         a.step(gr.sharpness, &mut v, &[g.sharpness], f);
         m.sharpness = v[0];
@@ -775,6 +795,9 @@ pub const AVERAGE_COUNT: &str = "average.count";
 /// The room's name in checkpoints: its tensors (`room.grid.table`, …) and
 /// optimiser groups (`adam.room.grid.m`, …).
 const ROOM: &str = "room";
+/// The background field's name in checkpoints: its tensors
+/// (`background.grid.table`, …) and optimiser groups.
+const BACKGROUND: &str = "background";
 /// The room's name in checkpoints written before issue 48 (it lived in the
 /// model's `ambient_specular` slot).
 const OLD_ROOM: &str = "ambient_specular";
@@ -801,6 +824,9 @@ pub fn save_model(model: &Model, w: &mut CheckpointWriter, prefix: &str) {
     model.ambient.save_to(w, &format!("{prefix}ambient"));
     if let Some(f) = &model.room {
         f.save_to(w, &format!("{prefix}{ROOM}"));
+    }
+    if let Some(f) = &model.background {
+        f.save_to(w, &format!("{prefix}{BACKGROUND}"));
     }
     w.add(
         &format!("{prefix}scalars"),
@@ -829,6 +855,10 @@ pub fn load_model(model: &mut Model, ck: &Checkpoint, prefix: &str) -> anyhow::R
         let room = room_name(ck, prefix);
         f.load_from(ck, &format!("{prefix}{room}"))
             .with_context(|| format!("{p}: {prefix}room field"))?;
+    }
+    if let Some(f) = &mut model.background {
+        f.load_from(ck, &format!("{prefix}{BACKGROUND}"))
+            .with_context(|| format!("{p}: {prefix}background field"))?;
     }
     let mut s = [0.0f32; 2];
     ck.read_into(&format!("{prefix}scalars"), &[2], &mut s)

@@ -1,10 +1,13 @@
 //! Finite-difference check, in f64, of the whole differentiable chain:
 //! samples along rays → SDF field with finite-difference normals → NeuS
 //! weights → material and ambient fields, flash term → composited colour and
-//! Σw, plus the eikonal term → a loss. Every parameter group of a tiny model
-//! is probed.
+//! Σw, plus the eikonal term → a loss; with a background (a run without
+//! masks), its samples beyond the unit sphere → background field → its
+//! volume rendering with the flash term → C += (1 − Σw) B. Every parameter
+//! group of a tiny model is probed.
 
 use wildlight_fields::Interpolation;
+use wildlight_render::BackgroundSettings;
 use wildlight_train::config::{AmbientModel, FieldSize, ModelConfig};
 use wildlight_train::model::Model;
 use wildlight_train::pipeline::{PassSettings, Pipeline, RayInputs};
@@ -37,12 +40,14 @@ fn tiny_config() -> ModelConfig {
             hidden: vec![],
             ..tiny(2, 6, 8)
         },
+        background: tiny(2, 6, 8),
         init_sharpness: 0.35,
         init_log_gain: 0.2,
         ..ModelConfig::default()
     }
 }
 
+#[derive(Clone)]
 struct Setup {
     origins: Vec<[f64; 3]>,
     dirs: Vec<[f64; 3]>,
@@ -93,6 +98,11 @@ fn loss(
     grads: Option<&mut wildlight_train::model::ModelGrads<f64>>,
 ) -> f64 {
     let mut p: Pipeline<f64> = Pipeline::default();
+    // few background samples, near enough that the flash term counts
+    p.background_settings = BackgroundSettings {
+        samples: 6,
+        far_radius: 20.0,
+    };
     // 24 uniform sections over [1.5, 3.5] on every ray: they cross the
     // initial sphere of radius 0.5.
     let n = 24;
@@ -168,6 +178,12 @@ fn room_grid(m: &mut Model<f64>) -> &mut Vec<f64> {
 fn room_mlp(m: &mut Model<f64>) -> &mut Vec<f64> {
     &mut m.room.as_mut().unwrap().mlp.params
 }
+fn bg_grid(m: &mut Model<f64>) -> &mut Vec<f64> {
+    &mut m.background.as_mut().unwrap().grid.params
+}
+fn bg_mlp(m: &mut Model<f64>) -> &mut Vec<f64> {
+    &mut m.background.as_mut().unwrap().mlp.params
+}
 
 /// The default form: the neural ambient with the room of the reflected
 /// direction, whose grid and linear map get their gradients and whose
@@ -175,6 +191,36 @@ fn room_mlp(m: &mut Model<f64>) -> &mut Vec<f64> {
 #[test]
 fn whole_pipeline_matches_finite_differences() {
     check_whole_pipeline(&tiny_config());
+}
+
+/// With the background of a run without masks, its samples jittered from
+/// the pass's seed (the same placement in every evaluation) and its flash
+/// response large enough that the flash term beyond the sphere weighs in
+/// the gain's gradient.
+#[test]
+fn whole_pipeline_with_the_background_matches_finite_differences() {
+    let config = tiny_config();
+    let mut model = Model::<f64>::with_background(&config, 5).unwrap();
+    prepare(&mut model);
+    let bg = model.background.as_mut().unwrap();
+    for (i, v) in bg.grid.params.iter_mut().enumerate() {
+        *v = 0.4 * ((i as f64 * 0.6).sin());
+    }
+    // ρ starts at 3 (σ and a as initialised)
+    let layer = *bg.mlp.layers().last().unwrap();
+    for j in 4..7 {
+        bg.mlp.params[layer.bias_offset + j] = 3.0f64.exp_m1().ln();
+    }
+    let mut s = setup();
+    s.settings.jitter_seed = Some(17);
+    // a ray that misses the initial sphere (radius 0.5) and sees the
+    // background through the unit sphere, with the flash on
+    s.origins.push([0.0, 0.8, 2.5]);
+    s.dirs.push([0.0, 0.0, -1.0]);
+    s.energy.push([2.0, 2.5, 3.0]);
+    s.d_colour.push([0.4, -0.7, 0.9]);
+    s.d_acc.push(-0.6);
+    check_model(&model, &s, true);
 }
 
 /// The plain neural ambient, without the room of the reflected direction.
@@ -191,6 +237,12 @@ fn whole_pipeline_with_the_plain_neural_ambient_matches_finite_differences() {
 /// values, so that their gradients are not negligible.
 fn prepared_model(config: &ModelConfig) -> Model<f64> {
     let mut model = Model::<f64>::new(config, 5).unwrap();
+    prepare(&mut model);
+    model
+}
+
+/// Moves the tables of [`prepared_model`] away from their initial values.
+fn prepare(model: &mut Model<f64>) {
     for (i, v) in model.material.grid.params.iter_mut().enumerate() {
         *v = 0.3 * ((i as f64 * 0.7).sin());
     }
@@ -205,15 +257,19 @@ fn prepared_model(config: &ModelConfig) -> Model<f64> {
             *v = 0.3 * ((i as f64 * 1.1).sin());
         }
     }
-    model
 }
 
 /// Checks the analytic gradients against central differences.
 fn check_whole_pipeline(config: &ModelConfig) {
-    let s = setup();
-    let model = prepared_model(config);
+    check_model(&prepared_model(config), &setup(), false);
+}
+
+/// Checks the analytic gradients of `model` on `s` against central
+/// differences (and the background's, when `background`).
+fn check_model(model: &Model<f64>, s: &Setup, background: bool) {
+    let config = &model.config;
     let mut grads = model.new_grads();
-    let base = loss(&model, &s, Some(&mut grads));
+    let base = loss(model, s, Some(&mut grads));
     assert!(base.is_finite());
 
     let h = 1e-6;
@@ -231,7 +287,7 @@ fn check_whole_pipeline(config: &ModelConfig) {
                 $params(&mut plus)[i] += h;
                 let mut minus = model.clone();
                 $params(&mut minus)[i] -= h;
-                let fd = (loss(&plus, &s, None) - loss(&minus, &s, None)) / (2.0 * h);
+                let fd = (loss(&plus, s, None) - loss(&minus, s, None)) / (2.0 * h);
                 check(&format!("{} [{}]", $name, i), $grad[i], fd);
                 probed += 1;
             }
@@ -253,6 +309,29 @@ fn check_whole_pipeline(config: &ModelConfig) {
         assert!(g.mlp.iter().any(|v| v.abs() > 1e-6));
         assert!(g.grid.iter().any(|v| v.abs() > 1e-6));
     }
+    assert_eq!(grads.background.is_some(), background);
+    if let Some(g) = &grads.background {
+        probe!("background.grid", bg_grid, g.grid);
+        probe!("background.mlp", bg_mlp, g.mlp);
+        assert!(g.mlp.iter().any(|v| v.abs() > 1e-6));
+        assert!(g.grid.iter().any(|v| v.abs() > 1e-6));
+        // the background's flash term is part of the gain's gradient
+        let mut no_flash = s.clone();
+        no_flash.energy = vec![[0.0; 3]; s.energy.len()];
+        let mut without = model.new_grads();
+        loss(model, &no_flash, Some(&mut without));
+        let mut object_only = model.clone();
+        object_only.background = None;
+        let mut g_obj = object_only.new_grads();
+        loss(&object_only, s, Some(&mut g_obj));
+        assert!(
+            (grads.log_gain - g_obj.log_gain).abs() > 1e-4,
+            "the background's flash term moves the gain's gradient: {} vs {}",
+            grads.log_gain,
+            g_obj.log_gain
+        );
+        assert_eq!(without.log_gain, 0.0);
+    }
     for (name, get) in [
         (
             "sharpness",
@@ -264,7 +343,7 @@ fn check_whole_pipeline(config: &ModelConfig) {
         *get(&mut plus) += h;
         let mut minus = model.clone();
         *get(&mut minus) -= h;
-        let fd = (loss(&plus, &s, None) - loss(&minus, &s, None)) / (2.0 * h);
+        let fd = (loss(&plus, s, None) - loss(&minus, s, None)) / (2.0 * h);
         let an = if name == "sharpness" {
             grads.sharpness
         } else {

@@ -96,6 +96,7 @@ fn run_options(data: &Path, out: &Path, config: TrainConfig) -> wildlight_train:
         resume: false,
         resume_iters: None,
         progress: false,
+        masks: Default::default(),
     }
 }
 
