@@ -26,7 +26,7 @@
 //! so an opaque object hides the background exactly and a ray that misses
 //! the sphere sees only it.
 
-use crate::real::Scalar;
+use wildlight_real::Real;
 
 /// How the background is sampled.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -62,7 +62,7 @@ pub struct BackgroundSamples<T> {
     pub points: Vec<[T; 3]>,
 }
 
-impl<T: Scalar> BackgroundSamples<T> {
+impl<T: Real> BackgroundSamples<T> {
     /// An empty set.
     pub fn new() -> Self {
         BackgroundSamples {
@@ -144,9 +144,9 @@ impl<T: Scalar> BackgroundSamples<T> {
                 let x = [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]];
                 let len = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt().max(1.0);
                 let scale = (2.0 - 1.0 / len) / len;
-                self.t.push(T::of(t));
-                self.delta.push(T::of(delta.max(0.0)));
-                self.points.push(x.map(|v| T::of(v * scale)));
+                self.t.push(T::from_f64(t));
+                self.delta.push(T::from_f64(delta.max(0.0)));
+                self.points.push(x.map(|v| T::from_f64(v * scale)));
             }
         }
     }
@@ -168,7 +168,7 @@ pub struct BackgroundInputs<'a, T> {
     pub light_energy: &'a [[T; 3]],
 }
 
-impl<T: Scalar> BackgroundInputs<'_, T> {
+impl<T: Real> BackgroundInputs<'_, T> {
     fn check(&self) -> usize {
         let n = self.samples.len();
         let per_ray = self.samples.per_ray;
@@ -188,24 +188,24 @@ impl<T: Scalar> BackgroundInputs<'_, T> {
 
 /// The opacity of sample `j` of a ray of `per_ray` samples.
 #[inline]
-fn alpha<T: Scalar>(j: usize, per_ray: usize, density: T, delta: T) -> T {
+fn alpha<T: Real>(j: usize, per_ray: usize, density: T, delta: T) -> T {
     if j + 1 == per_ray {
-        T::of(1.0)
+        T::from_f64(1.0)
     } else {
-        T::of(1.0) - (-(density * delta)).exp()
+        T::from_f64(1.0) - (-(density * delta)).exp()
     }
 }
 
 /// The flash factor γ E / t² of a sample.
 #[inline]
-fn flash_factor<T: Scalar>(gain: T, energy: [T; 3], t: T) -> [T; 3] {
-    let inv_t2 = T::of(1.0) / (t * t).max(T::of(1e-12));
+fn flash_factor<T: Real>(gain: T, energy: [T; 3], t: T) -> [T; 3] {
+    let inv_t2 = T::from_f64(1.0) / (t * t).max(T::from_f64(1e-12));
     energy.map(|e| gain * e * inv_t2)
 }
 
 /// The background radiance B of every ray (see the module docs), written
 /// into `colour`; `weights` receives each sample's w_j (they sum to 1).
-pub fn background_forward<T: Scalar>(
+pub fn background_forward<T: Real>(
     inputs: &BackgroundInputs<'_, T>,
     log_gain: T,
     colour: &mut [[T; 3]],
@@ -220,10 +220,10 @@ pub fn background_forward<T: Scalar>(
     );
     let gain = log_gain.exp();
     weights.clear();
-    weights.resize(s.len(), T::of(0.0));
+    weights.resize(s.len(), T::from_f64(0.0));
     for (r, out) in colour.iter_mut().enumerate() {
-        let mut transmittance = T::of(1.0);
-        let mut sum = [T::of(0.0); 3];
+        let mut transmittance = T::from_f64(1.0);
+        let mut sum = [T::from_f64(0.0); 3];
         for j in 0..per_ray {
             let k = r * per_ray + j;
             let a = alpha(j, per_ray, inputs.density[k], s.delta[k]);
@@ -233,7 +233,7 @@ pub fn background_forward<T: Scalar>(
             for c in 0..3 {
                 sum[c] += w * (inputs.ambient[k][c] + f[c] * inputs.flash_response[k][c]);
             }
-            transmittance = transmittance * (T::of(1.0) - a);
+            transmittance = transmittance * (T::from_f64(1.0) - a);
         }
         *out = sum;
     }
@@ -259,7 +259,7 @@ pub struct BackgroundGrads<T> {
 /// ∂L/∂σ_j = δ_j (T_{j+1} d_j − S_j) (the last sample's σ has no effect),
 /// ∂L/∂a_j = w_j ∂L/∂B, ∂L/∂ρ_j = w_j γ E / t_j² ∘ ∂L/∂B and
 /// ∂L/∂g = Σ_j w_j ∂L/∂B · (γ E ρ_j / t_j²).
-pub fn background_backward<T: Scalar>(
+pub fn background_backward<T: Real>(
     inputs: &BackgroundInputs<'_, T>,
     log_gain: T,
     weights: &[T],
@@ -275,7 +275,7 @@ pub fn background_backward<T: Scalar>(
         "background: d_colour length"
     );
     let gain = log_gain.exp();
-    let zero = T::of(0.0);
+    let zero = T::from_f64(0.0);
     grads.density.clear();
     grads.density.resize(s.len(), zero);
     grads.ambient.clear();
@@ -303,7 +303,7 @@ pub fn background_backward<T: Scalar>(
         let mut suffix = zero;
         // T_{j+1} = T_j (1 − α_j); w_j = T_j α_j, so T_{j+1} = T_j − w_j.
         let mut transmittance_after = vec![zero; per_ray];
-        let mut transmittance = T::of(1.0);
+        let mut transmittance = T::from_f64(1.0);
         for (j, after) in transmittance_after.iter_mut().enumerate() {
             transmittance = transmittance - weights[r * per_ray + j];
             *after = transmittance;
