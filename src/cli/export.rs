@@ -94,8 +94,8 @@ pub fn run_scale_mat(trained: &TrainedRun) -> anyhow::Result<glam::Mat4> {
 
 /// Whether the run was trained without masks (its surface then holds what
 /// the object stands on).
-fn trained_without_masks(_trained: &TrainedRun) -> bool {
-    false
+fn trained_without_masks(trained: &TrainedRun) -> bool {
+    trained.info.masks.maskless()
 }
 
 /// Runs `wildlight export`.
