@@ -233,7 +233,7 @@ pub fn background_forward<T: Real>(
             for c in 0..3 {
                 sum[c] += w * (inputs.ambient[k][c] + f[c] * inputs.flash_response[k][c]);
             }
-            transmittance = transmittance * (T::from_f64(1.0) - a);
+            transmittance *= T::from_f64(1.0) - a;
         }
         *out = sum;
     }
@@ -305,7 +305,7 @@ pub fn background_backward<T: Real>(
         let mut transmittance_after = vec![zero; per_ray];
         let mut transmittance = T::from_f64(1.0);
         for (j, after) in transmittance_after.iter_mut().enumerate() {
-            transmittance = transmittance - weights[r * per_ray + j];
+            transmittance -= weights[r * per_ray + j];
             *after = transmittance;
         }
         for j in (0..per_ray).rev() {
