@@ -3,9 +3,11 @@
 //! resumed maskless run continues exactly, and the captures it cannot
 //! train on are refused with a clear message.
 
+mod tiny_run;
+
 use std::path::Path;
-use wildlight_data::{Dataset, LoadOptions};
-use wildlight_synth::{RigOptions, SynthOptions, synthesize};
+use tiny_run::{capture, small};
+
 use wildlight_train::config::{FieldSize, TrainConfig};
 use wildlight_train::pipeline::eval_sdf;
 use wildlight_train::rays::TrainingRays;
@@ -15,61 +17,13 @@ use wildlight_train::run::{
 };
 use wildlight_train::trainer::Trainer;
 
-fn capture(dir: &Path, views: usize, size: u32) -> Dataset {
-    synthesize(&SynthOptions {
-        rig: RigOptions {
-            views,
-            val_views: 0,
-            width: size,
-            height: size,
-            seed: 3,
-            ..RigOptions::default()
-        },
-        spp: 4,
-        val_spp: 4,
-        mesh_resolution: 64,
-        out: dir.to_path_buf(),
-        progress: false,
-        ..SynthOptions::default()
-    })
-    .expect("synthesis works");
-    Dataset::load(dir, &LoadOptions::default()).expect("the capture loads")
-}
-
-fn small(levels: usize, log2: u32, finest: u32, hidden: Vec<usize>) -> FieldSize {
-    FieldSize {
-        levels,
-        features_per_level: 2,
-        log2_table_size: log2,
-        base_resolution: 8,
-        finest_resolution: finest,
-        hidden,
-        interpolation: Default::default(),
-    }
-}
-
 /// The small model of `train_tiny.rs`, with a small background field.
 fn small_config(iters: u64) -> TrainConfig {
-    let mut c = TrainConfig {
-        iters,
-        batch_rays: 512,
-        eikonal_points: 128,
-        ..TrainConfig::default()
-    };
-    c.model.sdf = small(8, 15, 128, vec![32]);
-    c.model.material = small(6, 14, 64, vec![32]);
-    c.model.ambient = small(4, 12, 32, vec![32]);
-    c.model.ambient_room = small(3, 12, 32, vec![]);
+    let mut c = tiny_run::small_config(iters);
     c.model.background = FieldSize {
         base_resolution: 4,
         ..small(6, 12, 64, vec![32])
     };
-    c.sampling.grid_resolution = 32;
-    c.sampling.grid_refresh_every = 4;
-    c.optim.warmup_steps = 10;
-    c.optim.cos_anneal_steps = 50;
-    c.optim.c2f_start_levels = 3;
-    c.optim.c2f_steps_per_level = 20;
     c
 }
 

@@ -1,66 +1,15 @@
 //! Training end to end on tiny synthetic captures: the loss falls and the
 //! surface approaches the ground truth; a resumed run continues exactly.
 
+mod tiny_run;
+
 use std::path::Path;
+use tiny_run::{capture, small_config};
 use wildlight_data::{Dataset, LoadOptions};
-use wildlight_synth::{RigOptions, SynthOptions, synthesize};
-use wildlight_train::config::{AmbientModel, FieldSize, TrainConfig};
+use wildlight_train::config::{AmbientModel, TrainConfig};
 use wildlight_train::pipeline::eval_sdf;
 use wildlight_train::rays::TrainingRays;
 use wildlight_train::trainer::Trainer;
-
-fn capture(dir: &Path, views: usize, size: u32) -> Dataset {
-    synthesize(&SynthOptions {
-        rig: RigOptions {
-            views,
-            val_views: 0,
-            width: size,
-            height: size,
-            seed: 3,
-            ..RigOptions::default()
-        },
-        spp: 4,
-        val_spp: 4,
-        mesh_resolution: 64,
-        out: dir.to_path_buf(),
-        progress: false,
-        ..SynthOptions::default()
-    })
-    .expect("synthesis works");
-    Dataset::load(dir, &LoadOptions::default()).expect("the capture loads")
-}
-
-fn small(levels: usize, log2: u32, finest: u32, hidden: Vec<usize>) -> FieldSize {
-    FieldSize {
-        levels,
-        features_per_level: 2,
-        log2_table_size: log2,
-        base_resolution: 8,
-        finest_resolution: finest,
-        hidden,
-        interpolation: Default::default(),
-    }
-}
-
-fn small_config(iters: u64) -> TrainConfig {
-    let mut c = TrainConfig {
-        iters,
-        batch_rays: 512,
-        eikonal_points: 128,
-        ..TrainConfig::default()
-    };
-    c.model.sdf = small(8, 15, 128, vec![32]);
-    c.model.material = small(6, 14, 64, vec![32]);
-    c.model.ambient = small(4, 12, 32, vec![32]);
-    c.model.ambient_room = small(3, 12, 32, vec![]);
-    c.sampling.grid_resolution = 32;
-    c.sampling.grid_refresh_every = 4;
-    c.optim.warmup_steps = 10;
-    c.optim.cos_anneal_steps = 50;
-    c.optim.c2f_start_levels = 3;
-    c.optim.c2f_steps_per_level = 20;
-    c
-}
 
 /// A temporary folder holding a capture of 6 views at 24² (`capture`), the
 /// path of a run folder beside it (`run`, not created yet), and a
