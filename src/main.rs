@@ -6,6 +6,7 @@
 use clap::{Parser, Subcommand};
 
 mod cli;
+mod display;
 mod plot;
 
 /// Inverse rendering with a flashlight: shape and materials from
@@ -29,6 +30,8 @@ struct Cli {
 enum Command {
     /// Synthesize the default capture, reconstruct it, export it and print the metrics.
     Demo(cli::demo::Args),
+    /// Photos in, asset out: import, train without masks, export the object, preview.
+    Reconstruct(cli::reconstruct::Args),
     /// Turn a folder of photos into a capture: COLMAP poses, linear images, flash labels.
     Import(cli::import::Args),
     /// Describe a dataset: images, flash, cameras, masks, and warnings.
@@ -67,6 +70,7 @@ fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(a) => cli::demo::run(a),
+        Command::Reconstruct(a) => cli::reconstruct::run(a),
         Command::Import(a) => cli::import::run(a),
         Command::Info(a) => cli::info::run(a),
         Command::Brdf(a) => cli::brdf::run(a),

@@ -15,15 +15,8 @@ pub struct Args {
     /// Output folder.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// Marching-cubes cells per axis over the unit sphere's bounding cube.
-    #[arg(long, default_value_t = 512)]
-    pub resolution: u32,
-    /// Largest face count of the simplified mesh.
-    #[arg(long, default_value_t = 131_072)]
-    pub faces: usize,
-    /// Texture width and height in texels.
-    #[arg(long, default_value_t = 2048)]
-    pub texture: u32,
+    #[command(flatten)]
+    pub asset: AssetArgs,
     /// Keep vertices in the normalized frame instead of world units.
     #[arg(long)]
     pub normalized: bool,
@@ -40,6 +33,20 @@ pub struct Args {
     /// No progress bars.
     #[arg(long)]
     pub quiet: bool,
+}
+
+/// The size of an exported asset: the options `export` and `reconstruct` share.
+#[derive(clap::Args, Debug, Clone)]
+pub struct AssetArgs {
+    /// Marching-cubes cells per axis over the unit sphere's bounding cube.
+    #[arg(long, default_value_t = 512)]
+    pub resolution: u32,
+    /// Largest face count of the simplified mesh.
+    #[arg(long, default_value_t = 131_072)]
+    pub faces: usize,
+    /// Texture width and height in texels.
+    #[arg(long, default_value_t = 2048)]
+    pub texture: u32,
 }
 
 /// The export settings of `args` for a capture whose normalized frame maps
@@ -102,18 +109,18 @@ fn trained_without_masks(trained: &TrainedRun) -> bool {
 pub fn run(args: Args) -> anyhow::Result<()> {
     // Check the options before the (slow) loading of the run.
     export_options(
-        args.resolution,
-        args.faces,
-        args.texture,
+        args.asset.resolution,
+        args.asset.faces,
+        args.asset.texture,
         glam::Mat4::IDENTITY,
         true,
         false,
     )?;
     let trained = TrainedRun::load(&args.run)?;
     let options = export_options(
-        args.resolution,
-        args.faces,
-        args.texture,
+        args.asset.resolution,
+        args.asset.faces,
+        args.asset.texture,
         run_scale_mat(&trained)?,
         !args.normalized,
         !args.quiet && std::io::IsTerminal::is_terminal(&std::io::stderr()),

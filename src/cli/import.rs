@@ -2,7 +2,7 @@
 //! with COLMAP poses, linear exposure-normalized images, flash labels and
 //! an automatic region of interest. All the work is in `wildlight-import`.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use wildlight_import::{ImportOptions, Roi, import};
@@ -16,6 +16,16 @@ pub struct Args {
     /// Capture folder to write (replaced if it holds an earlier import).
     #[arg(long, value_name = "CAPTURE")]
     pub out: PathBuf,
+    #[command(flatten)]
+    pub import: ImportArgs,
+    /// Print the report (import.json) instead of the table; no progress lines.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// How photos are imported: the options `import` and `reconstruct` share.
+#[derive(clap::Args, Debug, Clone)]
+pub struct ImportArgs {
     /// Photos taken with the flash on: a glob or a comma-separated list of
     /// file names (overrides EXIF).
     #[arg(long, value_name = "GLOB|LIST")]
@@ -36,9 +46,24 @@ pub struct Args {
     /// Longer side of the capture's images in pixels.
     #[arg(long, value_name = "PIXELS", default_value_t = wildlight_import::import::DEFAULT_MAX_SIZE)]
     pub max_size: u32,
-    /// Print the report (import.json) instead of the table; no progress lines.
-    #[arg(long)]
-    pub json: bool,
+}
+
+impl ImportArgs {
+    /// The import of `photos` into `out` with these options.
+    pub fn options(&self, photos: &Path, out: &Path) -> anyhow::Result<ImportOptions> {
+        let mut opts = ImportOptions::new(photos, out);
+        opts.flash = self.flash.clone();
+        opts.no_flash = self.no_flash.clone();
+        opts.colmap_model = self.colmap.clone();
+        opts.max_size = self.max_size;
+        if let (Some(c), Some(r)) = (&self.center, self.radius) {
+            opts.roi = Some(Roi {
+                center: parse_center(c)?,
+                radius: r,
+            });
+        }
+        Ok(opts)
+    }
 }
 
 /// Parses `X,Y,Z`.
@@ -56,17 +81,7 @@ fn parse_center(text: &str) -> anyhow::Result<glam::DVec3> {
 
 /// Runs `wildlight import`.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let mut opts = ImportOptions::new(&args.photos, &args.out);
-    opts.flash = args.flash;
-    opts.no_flash = args.no_flash;
-    opts.colmap_model = args.colmap;
-    opts.max_size = args.max_size;
-    if let (Some(c), Some(r)) = (&args.center, args.radius) {
-        opts.roi = Some(Roi {
-            center: parse_center(c)?,
-            radius: r,
-        });
-    }
+    let opts = args.import.options(&args.photos, &args.out)?;
     let quiet = args.json;
     let progress = move |line: &str| {
         if !quiet {

@@ -7,6 +7,7 @@ pub mod eval;
 pub mod export;
 pub mod import;
 pub mod info;
+pub mod reconstruct;
 pub mod render;
 pub mod synth;
 pub mod train;

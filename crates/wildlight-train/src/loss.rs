@@ -6,20 +6,20 @@ pub const MASK_CLAMP: f32 = 1e-3;
 
 /// The (ray, channel, error) triples the colour terms count: the channels
 /// of the rays marked `counts` that are not saturated (SPEC §4: a channel
-/// counts unless both the prediction and the observation are ≥ the cap),
-/// with error e = prediction − observation.
+/// counts unless both the prediction and the observation are ≥ the ray's
+/// cap, `caps[r]`), with error e = prediction − observation.
 fn counted_channels<'a>(
     pred: &'a [[f32; 3]],
     target: &'a [[f32; 3]],
     counts: &'a [bool],
-    cap: Option<f32>,
+    caps: &'a [Option<f32>],
 ) -> impl Iterator<Item = (usize, usize, f32)> + 'a {
     pred.iter()
         .zip(target)
-        .zip(counts)
+        .zip(counts.iter().zip(caps))
         .enumerate()
-        .filter(|(_, (_, c))| **c)
-        .flat_map(move |(r, ((p, t), _))| {
+        .filter(|(_, (_, (c, _)))| **c)
+        .flat_map(move |(r, ((p, t), (_, &cap)))| {
             (0..3)
                 .filter(move |&ch| !saturated(p[ch], t[ch], cap))
                 .map(move |ch| (r, ch, p[ch] - t[ch]))
@@ -27,19 +27,19 @@ fn counted_channels<'a>(
 }
 
 /// The L1 colour loss over the rays marked `counts`, excluding saturated
-/// channels ([`counted_channels`]). Returns (loss, counted channels, MSE of
+/// channels ([`counted_channels`]; `caps` holds each ray's saturation cap). Returns (loss, counted channels, MSE of
 /// the counted channels) and writes ∂loss/∂pred · `weight` into `d_pred`.
 pub fn colour_l1(
     pred: &[[f32; 3]],
     target: &[[f32; 3]],
     counts: &[bool],
-    cap: Option<f32>,
+    caps: &[Option<f32>],
     weight: f32,
     d_pred: &mut [[f32; 3]],
 ) -> (f64, usize, f64) {
     let mut n = 0usize;
     let (mut l1, mut l2) = (0.0f64, 0.0f64);
-    for (_, _, e) in counted_channels(pred, target, counts, cap) {
+    for (_, _, e) in counted_channels(pred, target, counts, caps) {
         let e = e as f64;
         l1 += e.abs();
         l2 += e * e;
@@ -49,7 +49,7 @@ pub fn colour_l1(
     for d in d_pred.iter_mut() {
         *d = [0.0; 3];
     }
-    for (r, ch, e) in counted_channels(pred, target, counts, cap) {
+    for (r, ch, e) in counted_channels(pred, target, counts, caps) {
         d_pred[r][ch] = weight * sign(e) * inv as f32;
     }
     (l1 * inv, n, l2 * inv)
@@ -98,7 +98,8 @@ mod tests {
         let pred = [[0.5, 1.2, 0.9], [0.1, 0.1, 0.1]];
         let target = [[0.25, 1.0, 1.1], [9.0, 9.0, 9.0]];
         let mut d = [[0.0; 3]; 2];
-        let (l, n, mse) = colour_l1(&pred, &target, &[true, false], Some(1.0), 2.0, &mut d);
+        let caps = [Some(1.0), Some(1.0)];
+        let (l, n, mse) = colour_l1(&pred, &target, &[true, false], &caps, 2.0, &mut d);
         // green: both ≥ cap → excluded; red and blue count.
         assert_eq!(n, 2);
         assert!((l - (0.25 + 0.2) / 2.0).abs() < 1e-6);
@@ -106,9 +107,25 @@ mod tests {
         assert_eq!(d[0], [1.0, 0.0, -1.0]);
         assert_eq!(d[1], [0.0; 3]);
         // without a cap every channel of the counted ray counts
-        let (l, n, _) = colour_l1(&pred, &target, &[true, false], None, 1.0, &mut d);
+        let (l, n, _) = colour_l1(&pred, &target, &[true, false], &[None, None], 1.0, &mut d);
         assert_eq!(n, 3);
         assert!((l - (0.25 + 0.2 + 0.2) / 3.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn each_ray_has_its_own_cap() {
+        // Two rays, both counted, the same colours; the first image clips
+        // at 1.0, the second (a brighter exposure scaled down) at 0.8.
+        let pred = [[0.9, 1.1, 0.5], [0.9, 1.1, 0.5]];
+        let target = [[0.8, 1.0, 0.4], [0.8, 1.0, 0.4]];
+        let mut d = [[0.0; 3]; 2];
+        let caps = [Some(1.0), Some(0.8)];
+        let (_, n, _) = colour_l1(&pred, &target, &[true, true], &caps, 1.0, &mut d);
+        // ray 0: green (1.1 and 1.0 ≥ 1.0) is left out; ray 1: red (0.9 and
+        // 0.8 ≥ 0.8) and green are left out; blue counts in both.
+        assert_eq!(n, 3);
+        assert_eq!(d[0], [1.0 / 3.0, 0.0, 1.0 / 3.0]);
+        assert_eq!(d[1], [0.0, 0.0, 1.0 / 3.0]);
     }
 
     #[test]

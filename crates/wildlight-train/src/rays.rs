@@ -22,8 +22,6 @@ pub struct TrainingRays {
     /// (view, pixel index) of every pixel of the silhouette band (empty
     /// until [`TrainingRays::set_silhouette_band`]).
     silhouette: Vec<(u32, u32)>,
-    /// Saturation cap of the capture.
-    pub saturation: Option<f32>,
     /// Whether the capture has masks.
     pub has_masks: bool,
     /// Probability of keeping a drawn pixel, per view (none: every draw is
@@ -38,6 +36,8 @@ struct ViewRays {
     pixels: Vec<f32>,
     mask: Option<Vec<bool>>,
     energy: [f32; 3],
+    /// This image's saturation cap ([`wildlight_data::View::saturation`]).
+    saturation: Option<f32>,
 }
 
 /// How a batch is split between the kinds of draws; what the shares leave
@@ -95,6 +95,10 @@ pub struct RayBatch {
     pub target: Vec<[f32; 3]>,
     /// Mask value (1 object, 0 background; 1 when there are no masks).
     pub mask: Vec<f32>,
+    /// Saturation cap of each ray's image (SPEC §4, §5; none: no cap).
+    /// Images may each have their own: an import scales each photo by its
+    /// exposure, which moves its clip level.
+    pub saturation: Vec<Option<f32>>,
     /// (view, pixel index) each ray was drawn from.
     pub pixels: Vec<(u32, u32)>,
 }
@@ -124,6 +128,7 @@ impl RayBatch {
             Some(m) => f32::from(u8::from(m[pixel as usize])),
             None => 1.0,
         });
+        self.saturation.push(view.saturation);
     }
 }
 
@@ -152,6 +157,7 @@ impl TrainingRays {
                     pixels: view.image.data.clone(),
                     mask,
                     energy: view.camera.light_energy.map(|e| e as f32),
+                    saturation: view.saturation,
                 }
             })
             .collect();
@@ -160,7 +166,6 @@ impl TrainingRays {
             views,
             foreground,
             silhouette: Vec::new(),
-            saturation: dataset.saturation,
             keep: None,
         }
     }
@@ -391,6 +396,7 @@ mod tests {
                 (5..11).contains(&x) && (5..11).contains(&y)
             })),
             energy,
+            saturation: None,
         }
     }
 
@@ -410,10 +416,22 @@ mod tests {
             views,
             foreground,
             silhouette: Vec::new(),
-            saturation: None,
             has_masks: true,
             keep: None,
         }
+    }
+
+    #[test]
+    fn rays_carry_their_images_cap() {
+        // Two views with their own caps (an import's exposure scaling).
+        let (mut a, mut b) = (test_view([0.0; 3]), test_view([1.0; 3]));
+        a.saturation = Some(0.5);
+        b.saturation = None;
+        let rays = rays_of(vec![a, b]);
+        let (batch_a, batch_b) = (rays.view_batch(0), rays.view_batch(1));
+        assert!(batch_a.saturation.iter().all(|c| *c == Some(0.5)));
+        assert!(batch_b.saturation.iter().all(|c| c.is_none()));
+        assert_eq!(batch_a.saturation.len(), batch_a.len());
     }
 
     #[test]

@@ -501,7 +501,7 @@ impl Trainer {
             &self.pipeline.colour,
             &self.batch.target,
             &counts,
-            self.rays.saturation,
+            &self.batch.saturation,
             cfg.loss.color as f32,
             &mut self.d_colour,
         );
