@@ -5,9 +5,13 @@
 //! orientations, quaternion mean), plus the region of interest against
 //! `meta.json`'s object sphere when given.
 //!
+//! With `--align-mesh IN.ply OUT.ply`, also moves a mesh in the capture's
+//! world frame (`wildlight export`'s `mesh_raw.ply`) into the truth's frame
+//! by the same similarity, for `wildlight eval mesh` against the true mesh.
+//!
 //! ```text
 //! cargo run --release -p wildlight-import --example check_poses -- \
-//!     CAPTURE path/to/gt/cameras.json [path/to/gt/meta.json]
+//!     CAPTURE path/to/gt/cameras.json [path/to/gt/meta.json] [--align-mesh IN.ply OUT.ply]
 //! ```
 
 use std::path::PathBuf;
@@ -36,9 +40,16 @@ fn stats(mut v: Vec<f64>) -> (f64, f64) {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let align_mesh = args.iter().position(|a| a == "--align-mesh").map(|k| {
+        let files: Vec<String> = args.drain(k..).skip(1).collect();
+        assert_eq!(files.len(), 2, "--align-mesh IN.ply OUT.ply");
+        (PathBuf::from(&files[0]), PathBuf::from(&files[1]))
+    });
     if args.len() < 2 {
-        eprintln!("usage: check_poses CAPTURE GT_CAMERAS_JSON [GT_META_JSON]");
+        eprintln!(
+            "usage: check_poses CAPTURE GT_CAMERAS_JSON [GT_META_JSON] [--align-mesh IN.ply OUT.ply]"
+        );
         std::process::exit(2);
     }
     let capture = PathBuf::from(&args[0]);
@@ -94,6 +105,18 @@ fn main() {
         est_c.len()
     );
     let sim = umeyama(&est_c, &gt_c).expect("an alignment");
+    if let Some((from, to)) = &align_mesh {
+        let mut mesh = wildlight_mesh::ply::read_ply(from).expect("a readable mesh");
+        for p in &mut mesh.positions {
+            *p = sim.apply(p.as_dvec3()).as_vec3();
+        }
+        wildlight_mesh::ply::write_ply(&mesh, to).expect("the aligned mesh written");
+        println!(
+            "aligned mesh:   {} (scale {:.5})",
+            to.display(),
+            sim.scale
+        );
+    }
     let meta = args.get(2).map(|p| read_json(p));
     let object = meta
         .as_ref()
