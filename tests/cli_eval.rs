@@ -209,3 +209,96 @@ fn images_and_materials_json() {
     assert!(j["normal_error_deg"].as_f64().unwrap() < 1e-3, "{j}");
     assert!(j["roughness_mae"].is_null());
 }
+
+/// `eval mesh --object-only` measures the object alone: a table top added
+/// under the torus (crossing the region of interest) is cut away again, so
+/// the distance is the torus's against itself; without the flag the table
+/// counts.
+#[test]
+fn mesh_object_only_cuts_the_table() {
+    use wildlight_mesh::TriMesh;
+    let gt_path = torus("gt_mesh.ply");
+    let npz = torus("cameras_sphere.npz");
+    let gt = TriMesh::read(&gt_path).unwrap();
+    let cameras = wildlight_data::Dataset::load_cameras(&npz).unwrap();
+    let m = cameras[0].scale_mat.as_mat4();
+    let (center, radius) = (m.transform_point3(glam::Vec3::ZERO), m.x_axis.length());
+    // A square table of 3 radii half-width just below the torus's lowest point.
+    let low = gt
+        .positions
+        .iter()
+        .map(|p| p.y)
+        .fold(f32::INFINITY, f32::min);
+    let y = low - 0.005 * radius;
+    let mut with_table = gt.clone();
+    let base = with_table.positions.len() as u32;
+    let n = 8;
+    for j in 0..=n {
+        for i in 0..=n {
+            let (u, v) = (
+                i as f32 / n as f32 * 2.0 - 1.0,
+                j as f32 / n as f32 * 2.0 - 1.0,
+            );
+            with_table.positions.push(glam::Vec3::new(
+                center.x + 3.0 * radius * u,
+                y,
+                center.z + 3.0 * radius * v,
+            ));
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let k = base + (j * (n + 1) + i) as u32;
+            let row = (n + 1) as u32;
+            with_table.triangles.push([k, k + row, k + 1]);
+            with_table.triangles.push([k + 1, k + row, k + row + 1]);
+        }
+    }
+    with_table.normals = None;
+    with_table.colors = None;
+    with_table.uvs = None;
+    let dir = tempfile::tempdir().unwrap();
+    let pred = dir.path().join("with_table.ply");
+    wildlight_mesh::ply::write_ply(&with_table, &pred).unwrap();
+    let (pred, gt_s, npz_s) = (
+        pred.to_str().unwrap(),
+        gt_path.to_str().unwrap(),
+        npz.to_str().unwrap(),
+    );
+    let all = json(&[
+        "mesh",
+        "--pred",
+        pred,
+        "--gt",
+        gt_s,
+        "--cameras",
+        npz_s,
+        "--json",
+    ]);
+    let object = json(&[
+        "mesh",
+        "--pred",
+        pred,
+        "--gt",
+        gt_s,
+        "--cameras",
+        npz_s,
+        "--object-only",
+        "--json",
+    ]);
+    let (all, object) = (
+        all["mean"].as_f64().unwrap(),
+        object["mean"].as_f64().unwrap(),
+    );
+    // The cut also takes the torus's few triangles within its margin of
+    // the table, hence a small distance rather than none.
+    assert!(object < 0.002 * radius as f64, "object only: {object}");
+    assert!(
+        all > 10.0 * object.max(1e-7),
+        "with the table: {all} (object {object})"
+    );
+    // In the world frame the flag needs the cameras.
+    let out = eval(&["mesh", "--pred", pred, "--gt", gt_s, "--object-only"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--cameras"));
+}

@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
+use anyhow::{Context, bail};
 use wildlight_data::Dataset;
 use wildlight_eval::cameras::{Frame, viewpoints};
 use wildlight_eval::{
@@ -58,6 +58,13 @@ struct MeshArgs {
     /// The frame both meshes are in; the camera centres are taken in it.
     #[arg(long, value_enum, default_value = "world")]
     frame: FrameArg,
+    /// Measure the predicted mesh's object alone, cut as `export
+    /// --object-only` cuts it: the support plane and what lies below it,
+    /// what lies outside the region of interest (the unit sphere; in the
+    /// world frame, mapped by the cameras' scale_mat, so --cameras is
+    /// needed there), and every piece but the largest.
+    #[arg(long)]
+    object_only: bool,
     /// Seed of the point sampler.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -134,20 +141,51 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn run_mesh(args: MeshArgs) -> anyhow::Result<()> {
-    let pred = TriMesh::read(&args.pred)?;
+    let mut pred = TriMesh::read(&args.pred)?;
     let gt = TriMesh::read(&args.gt)?;
     let frame = match args.frame {
         FrameArg::World => Frame::World,
         FrameArg::Normalized => Frame::Normalized,
     };
-    let views = match &args.cameras {
-        Some(path) => {
-            let cameras = Dataset::load_cameras(path)
-                .with_context(|| format!("cannot read the cameras of {}", path.display()))?;
-            Some(viewpoints(&cameras, frame))
-        }
+    let cameras = match &args.cameras {
+        Some(path) => Some(
+            Dataset::load_cameras(path)
+                .with_context(|| format!("cannot read the cameras of {}", path.display()))?,
+        ),
         None => None,
     };
+    if args.object_only {
+        // The region of interest in the meshes' frame.
+        let (center, radius) = match (frame, &cameras) {
+            (Frame::Normalized, _) => (glam::Vec3::ZERO, 1.0),
+            (Frame::World, Some(cams)) => {
+                let m = cams
+                    .first()
+                    .context("--object-only: the cameras are empty")?
+                    .scale_mat
+                    .as_mat4();
+                (m.transform_point3(glam::Vec3::ZERO), m.x_axis.length())
+            }
+            (Frame::World, None) => bail!(
+                "--object-only in the world frame needs --cameras (their scale_mat places the region of interest)"
+            ),
+        };
+        let cut = pred.object_only(&wildlight_mesh::SupportSearch::new(center, radius));
+        eprintln!(
+            "object only: support plane {}; removed {:.4} (support), {:.4} (outside), {:.4} (other pieces) of {:.4} (area, mesh units²)",
+            if cut.plane.is_some() {
+                "found"
+            } else {
+                "not found"
+            },
+            cut.support_area,
+            cut.outside_area,
+            cut.fragment_area,
+            pred.triangle_areas().iter().sum::<f64>()
+        );
+        pred = cut.mesh;
+    }
+    let views = cameras.as_ref().map(|c| viewpoints(c, frame));
     let options = SurfaceDistanceOptions {
         seed: args.seed,
         ..SurfaceDistanceOptions::default()

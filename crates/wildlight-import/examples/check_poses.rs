@@ -111,11 +111,7 @@ fn main() {
             *p = sim.apply(p.as_dvec3()).as_vec3();
         }
         wildlight_mesh::ply::write_ply(&mesh, to).expect("the aligned mesh written");
-        println!(
-            "aligned mesh:   {} (scale {:.5})",
-            to.display(),
-            sim.scale
-        );
+        println!("aligned mesh:   {} (scale {:.5})", to.display(), sim.scale);
     }
     let meta = args.get(2).map(|p| read_json(p));
     let object = meta

@@ -93,6 +93,9 @@ pub struct LossConfig {
     pub material_smoothness_final: f64,
     /// Weight of the normal smoothness prior (`crate::normal_smoothness`), ≥ 0; 0: off.
     pub normal_smoothness: f64,
+    /// Factor on both smoothness priors' weights (material and normal) in
+    /// runs without masks, ≥ 0 (0: off there, as in SPEC §4).
+    pub smoothness_without_masks: f64,
     /// The normal prior's weight at the last planned step, as a factor of
     /// `normal_smoothness` (1: constant).
     pub normal_smoothness_final: f64,
@@ -123,6 +126,7 @@ impl Default for LossConfig {
             material_smoothness_final: 0.3,
             normal_smoothness: 2.0,
             normal_smoothness_final: 0.3,
+            smoothness_without_masks: 0.0,
             binary_metallic: 0.3,
             binary_metallic_from: 0.5,
             binary_metallic_until: 0.7,
@@ -642,6 +646,10 @@ impl TrainConfig {
             ),
             ("loss.normal_smoothness", loss.normal_smoothness),
             ("loss.normal_smoothness_final", loss.normal_smoothness_final),
+            (
+                "loss.smoothness_without_masks",
+                loss.smoothness_without_masks,
+            ),
             ("loss.binary_metallic", loss.binary_metallic),
             ("loss.visual_hull", loss.visual_hull),
             ("optim.lr_grid", optim.lr_grid),

@@ -365,9 +365,20 @@ impl Trainer {
     pub fn material_smoothness_weight(&self, step: u64) -> f64 {
         let loss = &self.config.loss;
         loss.material_smoothness
+            * self.smoothness_factor()
             * self
                 .prior_anneal(loss.material_smoothness_final)
                 .factor(step)
+    }
+
+    /// The factor on the smoothness priors: 1 with masks,
+    /// `loss.smoothness_without_masks` without.
+    fn smoothness_factor(&self) -> f64 {
+        if self.rays.has_masks {
+            1.0
+        } else {
+            self.config.loss.smoothness_without_masks
+        }
     }
 
     /// The normal smoothness prior's weight at `step`: as
@@ -375,7 +386,9 @@ impl Trainer {
     /// and `loss.normal_smoothness_final`.
     pub fn normal_smoothness_weight(&self, step: u64) -> f64 {
         let loss = &self.config.loss;
-        loss.normal_smoothness * self.prior_anneal(loss.normal_smoothness_final).factor(step)
+        loss.normal_smoothness
+            * self.smoothness_factor()
+            * self.prior_anneal(loss.normal_smoothness_final).factor(step)
     }
 
     /// Sets the step at which the learning rate reaches its final factor
@@ -605,7 +618,10 @@ impl Trainer {
     /// numbers as before they existed.
     fn surface_priors(&mut self, rng: &mut Pcg64, fd_step: f64, step: u64) -> (f64, f64, f64) {
         let loss = &self.config.loss;
-        let smooth = loss.material_smoothness > 0.0 || loss.normal_smoothness > 0.0;
+        let factor = self.smoothness_factor();
+        let material_on = loss.material_smoothness * factor > 0.0;
+        let normal_on = loss.normal_smoothness * factor > 0.0;
+        let smooth = material_on || normal_on;
         let binary_on = self.binary_metallic_steps().contains(&step);
         if !smooth && !binary_on {
             return (0.0, 0.0, 0.0);
@@ -627,8 +643,7 @@ impl Trainer {
         let offsets = random_offsets(rng, centres.len(), loss.smoothness_radius);
         let material_weight = self.material_smoothness_weight(step) as f32;
         let normal_weight = self.normal_smoothness_weight(step) as f32;
-        let loss = &self.config.loss;
-        let material = if loss.material_smoothness > 0.0 {
+        let material = if material_on {
             self.smoothness.forward_backward(
                 &self.model.material,
                 &centres,
@@ -639,7 +654,7 @@ impl Trainer {
         } else {
             0.0
         };
-        let normal = if loss.normal_smoothness > 0.0 {
+        let normal = if normal_on {
             self.normal_smoothness.forward_backward(
                 &self.model.sdf,
                 &centres,
