@@ -196,15 +196,16 @@ impl Table {
 /// The table is flat and the environment infinitely far, so every table
 /// point faces the same sky: the irradiance without the object,
 /// E₀ = ∫ L(l) max(0, l_y) dω, is one number (RGB) per capture, and the
-/// object only takes light away. At a table point p the irradiance
-/// E(p) = E₀ − ∫ L(l) max(0, l_y) [l blocked at p] dω is estimated with
-/// E₀ as a control variate: E₀ is the mean of a fixed pool of
-/// [`TABLE_LIGHT_POOL`] environment samples l_k (importance-sampled, drawn
-/// at the points of the R2 low-discrepancy sequence, so that any run of
-/// consecutive ones is stratified) with weights w_k = L(l_k) max(0, l_k,y) / pdf(l_k),
-/// and the blocked part is the mean of w_k over the blocked samples of a
-/// run of `count` consecutive pool samples from a random start. Far from
-/// the object nothing is blocked, and the estimate is E₀ without noise. A
+/// object only takes light away. E₀ is the mean of the weights
+/// w_k = L(l_k) max(0, l_k,y) / pdf(l_k) of a fixed pool of
+/// [`TABLE_LIGHT_POOL`] importance-sampled environment directions l_k
+/// (drawn at the points of the R2 low-discrepancy sequence, so that any run
+/// of consecutive ones is stratified). At a table point p, a run of
+/// `count` consecutive pool samples from a random start gives the
+/// irradiance as the unblocked fraction of their weight (per channel),
+/// E(p) ≈ E₀ · Σ w_k [l_k not blocked at p] / Σ w_k: a ratio estimator,
+/// consistent (its bias falls as 1/count), never negative, and exactly E₀,
+/// without noise, far from the object where nothing is blocked. A
 /// Lambertian table reflects L = albedo/π · E(p) towards every viewer.
 #[derive(Clone, Debug)]
 pub struct TableLight {
@@ -250,14 +251,23 @@ impl TableLight {
         let count = count.clamp(1, n);
         let start = rng.random_range(0..n);
         let origin = p + DVec3::Y * (2e-4 * (1.0 + p.length()));
-        let mut blocked = DVec3::ZERO;
+        let (mut open, mut all) = (DVec3::ZERO, DVec3::ZERO);
         for j in 0..count {
             let (l, w) = self.samples[(start + j) % n];
-            if w != DVec3::ZERO && object.occluded(origin, l, f64::INFINITY) {
-                blocked += w;
+            if w == DVec3::ZERO {
+                continue;
+            }
+            all += w;
+            if !object.occluded(origin, l, f64::INFINITY) {
+                open += w;
             }
         }
-        (self.irradiance - blocked / count as f64).max(DVec3::ZERO)
+        if open == all {
+            return self.irradiance;
+        }
+        // all > 0 here: some weight was blocked
+        let fraction = DVec3::select(all.cmpgt(DVec3::ZERO), open / all, DVec3::ONE);
+        self.irradiance * fraction
     }
 }
 
