@@ -46,6 +46,8 @@ pub struct RenderScene {
     scene: Scene,
     material: MaterialDefinition,
     background: Background,
+    /// A sphere (centre, radius) that holds the mesh.
+    bound: (DVec3, f64),
 }
 
 impl RenderScene {
@@ -53,10 +55,21 @@ impl RenderScene {
     /// ([`Background::Room`]). Vertex normals are taken from the mesh when
     /// present, else averaged from the faces.
     pub fn new(mesh: &TriMesh, material: MaterialDefinition) -> RenderScene {
+        let centre = mesh
+            .bounding_box()
+            .map(|b| b.center().as_dvec3())
+            .unwrap_or(DVec3::ZERO);
+        let radius = mesh
+            .positions
+            .iter()
+            .map(|p| (p.as_dvec3() - centre).length())
+            .fold(0.0, f64::max);
         RenderScene {
             scene: Scene::new(mesh),
             material,
             background: Background::Room,
+            // a margin for the f32 vertices' rounding
+            bound: (centre, radius * (1.0 + 1e-6) + 1e-6),
         }
     }
 
@@ -193,7 +206,10 @@ pub fn render_view(
     }
     let energy = camera.light_energy;
     let flash_on = camera.flash();
-    let table_light = scene.background.table().map(|_| TableLight::new(env));
+    let table_light = scene
+        .background
+        .table()
+        .map(|_| TableLight::new(env, scene.bound.0, scene.bound.1));
     let ambient_settings = AmbientSettings {
         spp: settings.spp,
         brdf: settings.brdf,
