@@ -254,9 +254,9 @@ fn table_capture() {
                 let rho: Vec<f64> = (0..3)
                     .map(|ch| f[ch] as f64 * tt * tt / (cam.light_energy[ch] * c))
                     .collect();
-                for ch in 0..3 {
+                for (ch, r) in rho.iter().enumerate() {
                     let (a, b) = (table.albedos[0][ch], table.albedos[1][ch]);
-                    let albedo = rho[ch] * std::f64::consts::PI;
+                    let albedo = r * std::f64::consts::PI;
                     assert!(
                         albedo >= a.min(b) - 1e-4 && albedo <= a.max(b) + 1e-4,
                         "flash albedo {albedo} at {p}"
