@@ -157,3 +157,72 @@ fn mesh_file_with_constant_material() {
     let mesh = std::fs::read(out.join("gt/mesh_normalized.ply")).unwrap();
     assert!(!mesh.is_empty());
 }
+
+#[test]
+fn background_table_records_its_plane_and_keeps_cameras_above_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("table");
+    let run = common::tiny_synth("kettle", &out)
+        .args(["--background", "table"])
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("gt/background.json")).unwrap())
+            .unwrap();
+    assert_eq!(json["kind"], "table", "{json}");
+    let table = &json["table"];
+    // the plane touches the world mesh's lowest point
+    let world = wildlight_mesh::TriMesh::read(out.join("gt/mesh_world.ply")).unwrap();
+    let low = world
+        .positions
+        .iter()
+        .map(|p| p.y as f64)
+        .fold(f64::MAX, f64::min);
+    let offset_world = table["offset_world"].as_f64().unwrap();
+    assert!((offset_world - low).abs() < 1e-5, "{offset_world} vs {low}");
+    // every camera (normalized frame) lies above the plane
+    let offset = table["offset_normalized"].as_f64().unwrap();
+    let data = wildlight_data::Dataset::load(&out, &wildlight_data::LoadOptions::default())
+        .expect("the capture loads");
+    for v in &data.views {
+        assert!(v.camera.center.y > offset + 0.05, "{:?}", v.camera.center);
+    }
+    // the default background writes no record
+    let room = dir.path().join("room");
+    let run = common::tiny_synth("kettle", &room).output().unwrap();
+    assert!(run.status.success());
+    assert!(!room.join("gt/background.json").exists());
+}
+
+#[test]
+fn bad_backgrounds_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let help = common::run_ok(&["synth", "--help"]);
+    assert!(
+        help.contains("--background") && help.contains("table") && help.contains("none"),
+        "{help}"
+    );
+    let out = common::tiny_synth("kettle", &dir.path().join("wall"))
+        .args(["--background", "wall"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("room") && err.contains("table"), "{err}");
+    // every camera below the table: refused, nothing written
+    let below = dir.path().join("below");
+    let out = common::tiny_synth("kettle", &below)
+        .args(["--background", "table"])
+        .args(["--elevation-min", "-60", "--elevation-max", "-20"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--elevation-max"), "{err}");
+    assert!(!below.exists());
+}

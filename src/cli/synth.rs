@@ -5,7 +5,8 @@ use std::path::PathBuf;
 use anyhow::Context;
 use wildlight_material::BrdfSettings;
 use wildlight_synth::{
-    BuiltinScene, MaterialDefinition, RigOptions, SceneSource, SynthOptions, synthesize,
+    BackgroundKind, BuiltinScene, MaterialDefinition, RigOptions, SceneSource, SynthOptions,
+    synthesize,
 };
 
 /// Options of `wildlight synth`.
@@ -51,7 +52,7 @@ pub struct Args {
     /// Camera distance from the object centre, in normalized units (object radius ≲ 0.8).
     #[arg(long, default_value_t = 2.6)]
     pub distance: f64,
-    /// Lowest camera elevation in degrees.
+    /// Lowest camera elevation in degrees (raised to 5 with --background table).
     #[arg(long, default_value_t = -10.0, allow_negative_numbers = true)]
     pub elevation_min: f64,
     /// Highest camera elevation in degrees.
@@ -90,6 +91,14 @@ pub struct Args {
     /// Multiplier of the environment radiance.
     #[arg(long, default_value_t = 1.0)]
     pub env_strength: f64,
+    /// What the photos show where their rays miss the object: `room`, the environment map
+    /// that lights the object; `table`, the room and a large checkered wooden table top the
+    /// object stands on (lit by the room and the flash, shadowed by the object; the lowest
+    /// camera elevation is raised to 5° so that every camera looks from above the table);
+    /// `none`, black (0). Masks and ground truth stay the object's; gt/background.json
+    /// records a table (its plane in both frames) or none.
+    #[arg(long, value_enum, default_value_t = Background::Room)]
+    pub background: Background,
     /// Sensor noise: Gaussian, standard deviation NOISE·sqrt(value + 0.01) per channel (0 = off).
     #[arg(long, default_value_t = 0.0)]
     pub noise: f64,
@@ -176,6 +185,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         val_spp: args.val_spp,
         env: args.env,
         env_strength: args.env_strength,
+        background: args.background.kind(),
         mesh_resolution: args.mesh_resolution,
         noise: args.noise,
         saturation: args.saturation.0,
@@ -199,6 +209,28 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         start.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+/// The values of `--background`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Background {
+    /// The environment map, seen where a ray misses the object.
+    Room,
+    /// The room and a textured table top the object stands on.
+    Table,
+    /// Black.
+    None,
+}
+
+impl Background {
+    /// The synthesizer's kind.
+    fn kind(self) -> BackgroundKind {
+        match self {
+            Background::Room => BackgroundKind::Room,
+            Background::Table => BackgroundKind::Table,
+            Background::None => BackgroundKind::None,
+        }
+    }
 }
 
 /// A saturation cap, or none.

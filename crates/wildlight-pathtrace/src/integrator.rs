@@ -60,13 +60,29 @@ fn strata_columns(n: usize) -> usize {
     best
 }
 
+/// What blocks the environment light: the shadow rays of
+/// [`ambient_radiance`] ask it whether a direction is blocked. A [`Scene`]
+/// is one; a renderer adds other surfaces (e.g. the table of a synthetic
+/// capture) by implementing it for a scene and those surfaces together.
+pub trait Occluder {
+    /// Whether the ray from `origin` along unit `dir` hits anything with
+    /// t < `t_max`.
+    fn occluded(&self, origin: DVec3, dir: DVec3, t_max: f64) -> bool;
+}
+
+impl Occluder for Scene {
+    fn occluded(&self, origin: DVec3, dir: DVec3, t_max: f64) -> bool {
+        Scene::occluded(self, origin, dir, t_max)
+    }
+}
+
 /// Estimates the environment (ambient) radiance leaving `sp` towards `v`
 /// (unit, towards the viewer) for the material `params` (MIS of
-/// environment and BRDF sampling, with shadows from `scene`). `sp.normal`
-/// is the shading normal, so a renderer may take it (and `params`) from
-/// textures, e.g. for an exported asset.
-pub fn ambient_radiance(
-    scene: &Scene,
+/// environment and BRDF sampling, with shadows from `scene`, usually a
+/// [`Scene`]). `sp.normal` is the shading normal, so a renderer may take it
+/// (and `params`) from textures, e.g. for an exported asset.
+pub fn ambient_radiance<O: Occluder + ?Sized>(
+    scene: &O,
     env: &EnvMap,
     sp: &SurfacePoint,
     v: DVec3,
@@ -142,6 +158,60 @@ mod tests {
         assert_eq!(strata_columns(32), 4);
         assert_eq!(strata_columns(7), 1);
         assert_eq!(strata_columns(1), 1);
+    }
+
+    /// Blocks every direction below the horizontal plane through the origin.
+    struct LowerHalf;
+
+    impl Occluder for LowerHalf {
+        fn occluded(&self, _origin: DVec3, dir: DVec3, _t_max: f64) -> bool {
+            dir.y < 0.0
+        }
+    }
+
+    /// Any occluder shadows the estimate: a point facing +x under a uniform
+    /// sky, seen along its normal, gets half its light (the BRDF is
+    /// symmetric about the plane y = 0) when the lower half of the
+    /// directions is blocked, and the unblocked estimate is the scene's.
+    #[test]
+    fn an_occluder_that_blocks_the_lower_half_halves_the_light() {
+        let env = EnvMap::from_texels(16, 8, vec![[1.0; 3]; 128]).unwrap();
+        let sp = SurfacePoint {
+            t: 1.0,
+            position: DVec3::ZERO,
+            normal: DVec3::X,
+            geometric_normal: DVec3::X,
+        };
+        let params = wildlight_material::Material::default().to_array::<f64>();
+        let settings = AmbientSettings {
+            spp: 64,
+            brdf: BrdfSettings::default(),
+        };
+        // a scene far behind the viewer blocks nothing
+        let mut far = crate::test_sphere(0.1);
+        for p in &mut far.positions {
+            p.z += 100.0;
+        }
+        let nothing = Scene::new(&far);
+        let (mut open, mut half) = (0.0, 0.0);
+        let trials = 400;
+        for k in 0..trials {
+            let mut rng = pixel_rng(5, 0, k, 0);
+            open += ambient_radiance(&nothing, &env, &sp, DVec3::X, &params, &settings, &mut rng).x;
+            let mut rng = pixel_rng(5, 0, k, 0);
+            half += ambient_radiance(
+                &LowerHalf,
+                &env,
+                &sp,
+                DVec3::X,
+                &params,
+                &settings,
+                &mut rng,
+            )
+            .x;
+        }
+        let ratio = half / open;
+        assert!((ratio - 0.5).abs() < 0.02, "{ratio}");
     }
 
     /// A white furnace: a constant environment of radiance 1 and a white

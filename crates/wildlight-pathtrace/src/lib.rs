@@ -11,7 +11,8 @@
 //! - [`general_brdf`]: the principled BRDF of SPEC §3 for separate light
 //!   and view directions, and [`brdf_sampling`]: its importance sampling;
 //! - [`integrator`]: the environment light reflected towards the viewer
-//!   ([`ambient_radiance`], multiple importance sampling with shadows) and
+//!   ([`ambient_radiance`], multiple importance sampling with shadows from
+//!   an [`Occluder`]) and
 //!   the flash term of SPEC §2 ([`flash_term`]), with per-pixel random
 //!   numbers that do not depend on the thread schedule ([`pixel_rng`]).
 //!
@@ -46,7 +47,7 @@ pub mod scene;
 
 pub use env_map::EnvMap;
 pub use error::EnvMapError;
-pub use integrator::{AmbientSettings, ambient_radiance, flash_term, hash64, pixel_rng};
+pub use integrator::{AmbientSettings, Occluder, ambient_radiance, flash_term, hash64, pixel_rng};
 pub use scene::{Scene, SurfacePoint};
 
 /// A sphere of radius `r` about the origin (an icosphere of 5120 faces),

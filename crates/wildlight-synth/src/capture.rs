@@ -6,6 +6,7 @@
 //! OUT/cameras_sphere.npz   OUT/image/NNN.exr   OUT/mask/NNN.png
 //! OUT/gt/<kind>/NNN.exr    kinds: base_color roughness metallic normal depth flash ambient params
 //! OUT/gt/mesh_world.ply    OUT/gt/mesh_normalized.ply    OUT/gt/material.json
+//! OUT/gt/background.json   the background, unless it is the room (crate::background)
 //! OUT/val/...              the held-out views, same layout (no meshes)
 //! ```
 
@@ -18,6 +19,7 @@ use wildlight_material::{BrdfSettings, PARAM_COUNT};
 use wildlight_mesh::TriMesh;
 use wildlight_pathtrace::EnvMap;
 
+use crate::background::{Background, BackgroundInfo, BackgroundKind};
 use crate::error::SynthError;
 use crate::ground_truth::{GroundTruthMaterial, MaterialDefinition};
 use crate::mesher::mesh_sdf;
@@ -64,6 +66,10 @@ pub struct SynthOptions {
     pub env: Option<PathBuf>,
     /// Multiplier of the environment radiance.
     pub env_strength: f64,
+    /// What the photos show where their rays miss the object
+    /// ([`crate::background`]). A table raises the rig's lowest elevation
+    /// to [`crate::background::TABLE_MIN_ELEVATION_DEG`].
+    pub background: BackgroundKind,
     /// Grid points per axis when meshing a built-in scene.
     pub mesh_resolution: usize,
     /// Sensor noise level (0 = off), see [`ShadingSettings::noise`].
@@ -98,6 +104,7 @@ impl Default for SynthOptions {
             val_spp: 1024,
             env: None,
             env_strength: 1.0,
+            background: BackgroundKind::Room,
             mesh_resolution: 160,
             noise: 0.0,
             saturation: Some(DEFAULT_SATURATION),
@@ -281,7 +288,11 @@ pub fn synthesize(opts: &SynthOptions) -> Result<CaptureSummary, SynthError> {
     if let Some(m) = &opts.material {
         m.validate().map_err(|p| bad("--material", p))?;
     }
-    let views = opts.rig.build()?;
+    let rig = opts.background.rig(&opts.rig)?;
+    let views = rig.build()?;
+    let (mesh, scene_name, default_material) = scene_mesh(&opts.source, opts.mesh_resolution)?;
+    let background = Background::new(opts.background, &mesh)?;
+    background.check_cameras(&views)?;
     if opts.out.exists() {
         let non_empty = std::fs::read_dir(&opts.out)
             .map(|mut d| d.next().is_some())
@@ -303,17 +314,16 @@ pub fn synthesize(opts: &SynthOptions) -> Result<CaptureSummary, SynthError> {
         Some(path) => EnvMap::load(path)?,
         None => EnvMap::procedural_sky(),
     }
-    .scaled(opts.env_strength * opts.rig.exposure);
+    .scaled(opts.env_strength * rig.exposure);
 
-    let (mesh, scene_name, default_material) = scene_mesh(&opts.source, opts.mesh_resolution)?;
     let material = opts.material.clone().unwrap_or(default_material);
-    let scene = RenderScene::new(&mesh, material.clone());
+    let scene = RenderScene::new(&mesh, material.clone()).with_background(background);
     let settings = ShadingSettings {
         spp: opts.spp,
         brdf: opts.brdf,
         noise: opts.noise,
         saturation: opts.saturation,
-        seed: opts.rig.seed,
+        seed: rig.seed,
     };
     let val_settings = ShadingSettings {
         spp: opts.val_spp,
@@ -322,13 +332,13 @@ pub fn synthesize(opts: &SynthOptions) -> Result<CaptureSummary, SynthError> {
     };
 
     let train = DatasetWriter::create(&opts.out)?;
-    let val = if opts.rig.val_views > 0 {
+    let val = if rig.val_views > 0 {
         Some(train.val()?)
     } else {
         None
     };
 
-    let total_rows = views.len() as u64 * opts.rig.height as u64;
+    let total_rows = views.len() as u64 * rig.height as u64;
     let bar = if opts.progress {
         let bar = ProgressBar::with_draw_target(Some(total_rows), ProgressDrawTarget::stderr());
         bar.set_style(
@@ -364,7 +374,7 @@ pub fn synthesize(opts: &SynthOptions) -> Result<CaptureSummary, SynthError> {
                 Split::Train => &settings,
                 Split::Val => &val_settings,
             },
-            opts.rig.world_scale,
+            rig.world_scale,
             &on_row,
         )?;
         match view.split {
@@ -394,7 +404,7 @@ pub fn synthesize(opts: &SynthOptions) -> Result<CaptureSummary, SynthError> {
         source: e,
     })?;
     mesh.write(gt_dir.join("mesh_normalized.ply"))?;
-    let scale_mat: DMat4 = opts.rig.scale_mat();
+    let scale_mat: DMat4 = rig.scale_mat();
     let mut world = mesh.clone();
     world.positions = mesh
         .positions
@@ -405,11 +415,16 @@ pub fn synthesize(opts: &SynthOptions) -> Result<CaptureSummary, SynthError> {
     GroundTruthMaterial::new(
         &scene_name,
         material,
-        opts.rig.world_scale,
-        opts.rig.world_offset,
+        rig.world_scale,
+        rig.world_offset,
         opts.brdf,
     )
     .save(&gt_dir.join("material.json"))?;
+    if background.kind() != BackgroundKind::Room {
+        // a capture without the record shows the room, as every capture
+        // written before the option does
+        BackgroundInfo::new(&background, rig.world_scale, rig.world_offset).save(&opts.out)?;
+    }
 
     Ok(CaptureSummary {
         out: opts.out.clone(),

@@ -6,7 +6,8 @@
 //! integrated by Monte Carlo with shadows, and for flash views the exact
 //! flash term of SPEC §2 ([`render`], shading with the path tracer of
 //! `wildlight-pathtrace`). The output is a
-//! dataset folder in the layout of SPEC §5 with per-view ground-truth maps,
+//! dataset folder in the layout of SPEC §5, behind the object the room,
+//! a table top or nothing ([`background`]), with per-view ground-truth maps,
 //! the ground-truth meshes and `gt/material.json`, from which
 //! [`GroundTruthMaterial`] evaluates the true material at any point.
 //!
@@ -20,6 +21,7 @@
 // `!(x > 0.0)` is used on purpose: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod background;
 pub mod capture;
 pub mod error;
 pub mod ground_truth;
@@ -29,6 +31,7 @@ pub mod rig;
 pub mod scenes;
 pub mod sdf;
 
+pub use background::{Background, BackgroundInfo, BackgroundKind, Table};
 pub use capture::{
     CaptureSummary, DEFAULT_SATURATION, SceneSource, SynthOptions, scene_mesh, synthesize,
 };

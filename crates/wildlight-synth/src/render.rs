@@ -12,10 +12,15 @@
 //!   ([`wildlight_pathtrace::flash_term`]),
 //!   f = E ⊙ ρ(n, h; Θ) · max(0, n·h) / |x − o|² with h = (o − x)/|o − x|,
 //!   ρ the SPEC §3 model, n the shading normal written to the normal map;
-//! - pixels that see no surface show the environment behind the object.
+//! - pixels whose ray misses the object show the background
+//!   ([`crate::background`]): the environment in the ray's direction
+//!   (room), the Lambertian table top under the environment with the
+//!   object's shadows ([`TableLight`]) and the flash (SPEC §2) or that
+//!   environment (table), or 0 (none).
 //!
-//! Masks are the object's pixel coverage > 0.5, measured with 4×4 rays
-//! per pixel where the centre hits of neighbouring pixels disagree.
+//! Masks are the object's pixel coverage > 0.5 (the fraction of a pixel's
+//! rays whose first hit is the object), measured with 4×4 rays per pixel
+//! where the centre hits of neighbouring pixels disagree.
 //! Random numbers come from a generator seeded by (seed, view, pixel)
 //! ([`wildlight_pathtrace::pixel_rng`]), so the result does not depend on
 //! the thread schedule.
@@ -31,6 +36,7 @@ use wildlight_pathtrace::{
     AmbientSettings, EnvMap, Scene, SurfacePoint, ambient_radiance, flash_term, pixel_rng,
 };
 
+use crate::background::{Background, OnTable, Table, TableLight};
 use crate::error::SynthError;
 use crate::ground_truth::MaterialDefinition;
 
@@ -39,16 +45,43 @@ use crate::ground_truth::MaterialDefinition;
 pub struct RenderScene {
     scene: Scene,
     material: MaterialDefinition,
+    background: Background,
+    /// A sphere (centre, radius) that holds the mesh.
+    bound: (DVec3, f64),
 }
 
 impl RenderScene {
-    /// Prepares `mesh` (normalized frame). Vertex normals are taken from
-    /// the mesh when present, else averaged from the faces.
+    /// Prepares `mesh` (normalized frame) in front of the room
+    /// ([`Background::Room`]). Vertex normals are taken from the mesh when
+    /// present, else averaged from the faces.
     pub fn new(mesh: &TriMesh, material: MaterialDefinition) -> RenderScene {
+        let centre = mesh
+            .bounding_box()
+            .map(|b| b.center().as_dvec3())
+            .unwrap_or(DVec3::ZERO);
+        let radius = mesh
+            .positions
+            .iter()
+            .map(|p| (p.as_dvec3() - centre).length())
+            .fold(0.0, f64::max);
         RenderScene {
             scene: Scene::new(mesh),
             material,
+            background: Background::Room,
+            // a margin for the f32 vertices' rounding
+            bound: (centre, radius * (1.0 + 1e-6) + 1e-6),
         }
+    }
+
+    /// The same object in front of `background`.
+    pub fn with_background(mut self, background: Background) -> RenderScene {
+        self.background = background;
+        self
+    }
+
+    /// The background.
+    pub fn background(&self) -> &Background {
+        &self.background
     }
 
     /// The material definition.
@@ -61,14 +94,36 @@ impl RenderScene {
         &self.scene
     }
 
-    /// The first surface point along the ray (unit `dir`), if any.
+    /// The first point of the object along the ray (unit `dir`), if any
+    /// (the background is not traced).
     pub fn trace(&self, origin: DVec3, dir: DVec3) -> Option<SurfacePoint> {
         self.scene.trace(origin, dir)
     }
 
-    /// Whether the ray from `origin` along unit `dir` hits anything with
-    /// t < `t_max`.
+    /// Whether the ray from `origin` along unit `dir` hits the object with
+    /// t < `t_max` (the background is not traced).
     pub fn occluded(&self, origin: DVec3, dir: DVec3, t_max: f64) -> bool {
+        self.scene.occluded(origin, dir, t_max)
+    }
+
+    /// The object's point along the camera ray if the object is the first
+    /// surface the ray hits (the table, if any, not in front of it).
+    fn trace_object_first(&self, origin: DVec3, dir: DVec3) -> Option<SurfacePoint> {
+        let hit = self.scene.trace(origin, dir)?;
+        match &self.background {
+            Background::Table(table) if table.intersect(origin, dir, hit.t).is_some() => None,
+            _ => Some(hit),
+        }
+    }
+
+    /// Whether the first surface the camera ray hits is the object.
+    fn object_first(&self, origin: DVec3, dir: DVec3) -> bool {
+        let t_max = match &self.background {
+            Background::Table(table) => table
+                .intersect(origin, dir, f64::INFINITY)
+                .unwrap_or(f64::INFINITY),
+            _ => f64::INFINITY,
+        };
         self.scene.occluded(origin, dir, t_max)
     }
 }
@@ -93,11 +148,14 @@ pub struct ShadingSettings {
 pub struct ViewImages {
     /// The photo (ambient + flash, with noise and clipping).
     pub image: RgbImage,
-    /// Ambient-only radiance (no noise, no clipping; the environment where no surface).
+    /// Ambient-only radiance (no noise, no clipping; where the ray misses
+    /// the object, the background's: the environment, the table, or 0).
     pub ambient: RgbImage,
-    /// Flash-only radiance (no noise, no clipping).
+    /// Flash-only radiance (no noise, no clipping; the table's where the
+    /// ray sees the table).
     pub flash: RgbImage,
-    /// Linear base colour.
+    /// Linear base colour (this and the following maps are the object's
+    /// alone: zero where the ray misses the object).
     pub base_color: RgbImage,
     /// Roughness in all three channels.
     pub roughness: RgbImage,
@@ -132,7 +190,7 @@ pub fn render_view(
         .flat_map_iter(|y| {
             (0..w).map(move |x| {
                 let ray = camera.ray(x as f64, y as f64);
-                scene.trace(ray.origin, ray.dir)
+                scene.trace_object_first(ray.origin, ray.dir)
             })
         })
         .collect();
@@ -148,6 +206,10 @@ pub fn render_view(
     }
     let energy = camera.light_energy;
     let flash_on = camera.flash();
+    let table_light = scene
+        .background
+        .table()
+        .map(|_| TableLight::new(env, scene.bound.0, scene.bound.1));
     let ambient_settings = AmbientSettings {
         spp: settings.spp,
         brdf: settings.brdf,
@@ -172,7 +234,7 @@ pub fn render_view(
                             let sx = x as f64 - 0.5 + ((s % 4) as f64 + 0.5) / 4.0;
                             let sy = y as f64 - 0.5 + ((s / 4) as f64 + 0.5) / 4.0;
                             let ray = camera.ray(sx, sy);
-                            covered += scene.occluded(ray.origin, ray.dir, f64::INFINITY) as usize;
+                            covered += scene.object_first(ray.origin, ray.dir) as usize;
                         }
                         covered > 8
                     } else {
@@ -181,25 +243,49 @@ pub fn render_view(
                     let ray = camera.ray(x as f64, y as f64);
                     let mut rng = pixel_rng(settings.seed, view, i, 0);
                     let (ambient_l, flash_l, normal, depth, params) = match &hits[i] {
-                        None => (
-                            env.radiance(ray.dir),
-                            DVec3::ZERO,
-                            DVec3::ZERO,
-                            0.0,
-                            [0.0; 9],
-                        ),
+                        None => {
+                            let (a, f) = match &scene.background {
+                                Background::Room => (env.radiance(ray.dir), DVec3::ZERO),
+                                Background::None => (DVec3::ZERO, DVec3::ZERO),
+                                Background::Table(table) => shade_table(
+                                    scene,
+                                    table,
+                                    table_light.as_ref().expect("built for a table"),
+                                    env,
+                                    camera,
+                                    (x, y),
+                                    settings.spp,
+                                    &mut rng,
+                                ),
+                            };
+                            (a, f, DVec3::ZERO, 0.0, [0.0; 9])
+                        }
                         Some(sp) => {
                             let params = scene.material.eval(sp.position).to_array::<f64>();
                             let v = -ray.dir;
-                            let a = ambient_radiance(
-                                &scene.scene,
-                                env,
-                                sp,
-                                v,
-                                &params,
-                                &ambient_settings,
-                                &mut rng,
-                            );
+                            let a = match &scene.background {
+                                Background::Table(table) => ambient_radiance(
+                                    &OnTable {
+                                        scene: &scene.scene,
+                                        table,
+                                    },
+                                    env,
+                                    sp,
+                                    v,
+                                    &params,
+                                    &ambient_settings,
+                                    &mut rng,
+                                ),
+                                _ => ambient_radiance(
+                                    &scene.scene,
+                                    env,
+                                    sp,
+                                    v,
+                                    &params,
+                                    &ambient_settings,
+                                    &mut rng,
+                                ),
+                            };
                             let f = if flash_on {
                                 flash_term(
                                     energy,
@@ -277,6 +363,62 @@ pub fn render_view(
         }
     }
     Ok(out)
+}
+
+/// The ambient and flash radiance that the camera ray through pixel
+/// `(x, y)` receives from the table, or the environment where the ray
+/// misses the table (above the horizon, beyond the disc).
+///
+/// The table is Lambertian with the albedo of its checker box-filtered over
+/// the pixel's footprint on the plane (from the rays through the next pixel
+/// along x and along y): ambient albedo/π · E(p), E the irradiance with the
+/// object's shadows ([`TableLight`], `spp` samples), and the flash term of
+/// SPEC §2 with ρ = albedo/π.
+#[allow(clippy::too_many_arguments)]
+fn shade_table(
+    scene: &RenderScene,
+    table: &Table,
+    light: &TableLight,
+    env: &EnvMap,
+    camera: &Camera,
+    (x, y): (usize, usize),
+    spp: usize,
+    rng: &mut Pcg32,
+) -> (DVec3, DVec3) {
+    let ray = camera.ray(x as f64, y as f64);
+    let Some(t) = table.intersect(ray.origin, ray.dir, f64::INFINITY) else {
+        return (env.radiance(ray.dir), DVec3::ZERO);
+    };
+    let p = ray.origin + t * ray.dir;
+    // the pixel's footprint: where the neighbouring pixels' rays meet the plane
+    let on_plane = |sx: f64, sy: f64| {
+        let r = camera.ray(sx, sy);
+        let t = (table.height - r.origin.y) / r.dir.y;
+        (t > 0.0 && t.is_finite()).then(|| r.origin + t * r.dir)
+    };
+    let footprint = match (
+        on_plane(x as f64 + 1.0, y as f64),
+        on_plane(x as f64, y as f64 + 1.0),
+    ) {
+        (Some(px), Some(py)) => {
+            let (dx, dy) = (px - p, py - p);
+            [dx.x.abs().max(dy.x.abs()), dx.z.abs().max(dy.z.abs())]
+        }
+        // a neighbour above the horizon: the pixel spans the far table
+        _ => [table.radius; 2],
+    };
+    let rho = DVec3::from(table.albedo(p, footprint)) / std::f64::consts::PI;
+    // The rig keeps the cameras above the table (Background::check_cameras):
+    // the ray meets its upper side, n = +y.
+    let ambient = rho * light.irradiance(p, &scene.scene, spp, rng);
+    let flash = if camera.flash() {
+        // SPEC §2: f = E ⊙ ρ · max(0, n·h) / |x − o|², h = −dir, |x − o| = t
+        let c = (-ray.dir.y).max(0.0);
+        DVec3::from(camera.light_energy) * rho * (c / (t * t))
+    } else {
+        DVec3::ZERO
+    };
+    (ambient, flash)
 }
 
 /// A standard normal number (Box–Muller).
