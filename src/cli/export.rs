@@ -49,6 +49,31 @@ pub struct AssetArgs {
     pub texture: u32,
 }
 
+impl AssetArgs {
+    /// Checks the ranges (before anything slow runs).
+    pub fn check(&self) -> anyhow::Result<()> {
+        self.options(glam::Mat4::IDENTITY, true, false).map(|_| ())
+    }
+
+    /// The export settings for a capture whose normalized frame maps to the
+    /// world by `scale_mat`.
+    pub fn options(
+        &self,
+        scale_mat: glam::Mat4,
+        world_units: bool,
+        progress: bool,
+    ) -> anyhow::Result<ExportOptions> {
+        export_options(
+            self.resolution,
+            self.faces,
+            self.texture,
+            scale_mat,
+            world_units,
+            progress,
+        )
+    }
+}
+
 /// The export settings of `args` for a capture whose normalized frame maps
 /// to the world by `scale_mat`, after checking the ranges.
 pub fn export_options(
@@ -108,19 +133,9 @@ fn trained_without_masks(trained: &TrainedRun) -> bool {
 /// Runs `wildlight export`.
 pub fn run(args: Args) -> anyhow::Result<()> {
     // Check the options before the (slow) loading of the run.
-    export_options(
-        args.asset.resolution,
-        args.asset.faces,
-        args.asset.texture,
-        glam::Mat4::IDENTITY,
-        true,
-        false,
-    )?;
+    args.asset.check()?;
     let trained = TrainedRun::load(&args.run)?;
-    let options = export_options(
-        args.asset.resolution,
-        args.asset.faces,
-        args.asset.texture,
+    let options = args.asset.options(
         run_scale_mat(&trained)?,
         !args.normalized,
         !args.quiet && std::io::IsTerminal::is_terminal(&std::io::stderr()),

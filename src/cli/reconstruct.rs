@@ -31,7 +31,7 @@ use wildlight_train::config::parse_duration;
 use wildlight_train::inference::{ExportSource, TrainedRun};
 use wildlight_train::run::{CHECKPOINT_FILE, MaskChoice, RunOptions, planned_iters, train};
 
-use crate::cli::export::{AssetArgs, export_options, run_scale_mat};
+use crate::cli::export::{AssetArgs, run_scale_mat};
 use crate::cli::import::ImportArgs;
 use crate::display::{exposure_for, rgb, tile, tone_map};
 
@@ -238,14 +238,7 @@ fn export_reserve(resolution: u32) -> Duration {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let started = Instant::now();
     // Check the options before anything slow.
-    export_options(
-        args.asset.resolution,
-        args.asset.faces,
-        args.asset.texture,
-        glam::Mat4::IDENTITY,
-        true,
-        false,
-    )?;
+    args.asset.check()?;
     let mut config = match &args.config {
         Some(p) => TrainConfig::load(p)?,
         None => TrainConfig::default(),
@@ -374,14 +367,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         say(&format!("3/4 export into {}", layout.export.display()));
         let options = ExportOptions {
             object_only: !args.keep_support && trained.info.masks.maskless(),
-            ..export_options(
-                args.asset.resolution,
-                args.asset.faces,
-                args.asset.texture,
-                run_scale_mat(&trained)?,
-                true,
-                bars,
-            )?
+            ..args.asset.options(run_scale_mat(&trained)?, true, bars)?
         };
         let report = export_whole(&trained, &options, &layout)?;
         state.record(
