@@ -6,10 +6,9 @@
 mod tiny_run;
 
 use std::path::Path;
-use tiny_run::{capture, small};
+use tiny_run::{capture, mean_abs_sdf_at_gt, small};
 
 use wildlight_train::config::{FieldSize, TrainConfig};
-use wildlight_train::pipeline::eval_sdf;
 use wildlight_train::rays::TrainingRays;
 use wildlight_train::run::{
     CHECKPOINT_FILE, MaskChoice, MaskMode, RunOptions, check_maskless_capture, read_run, train,
@@ -27,19 +26,9 @@ fn small_config(iters: u64) -> TrainConfig {
     c
 }
 
-/// Mean |φ| of the model at the ground-truth surface vertices.
-fn mean_abs_sdf_at_gt(trainer: &Trainer, dir: &Path) -> f64 {
-    let mesh = wildlight_mesh::TriMesh::read(dir.join("gt/mesh_normalized.ply")).unwrap();
-    let pts: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();
-    let mut out = vec![0.0f32; pts.len()];
-    let mut ctx = wildlight_fields::FieldContext::new();
-    eval_sdf(&trainer.model, &pts, &mut out, &mut ctx);
-    out.iter().map(|v| v.abs() as f64).sum::<f64>() / out.len() as f64
-}
-
-/// The synthetic captures render nothing behind the object (black), so
-/// with the masks ignored the colour alone must carve the silhouette, and
-/// the background field learns the black beyond the sphere.
+/// The synthetic captures show the room's environment behind the object,
+/// so with the masks ignored the colour alone must carve the silhouette,
+/// and the background field learns the environment beyond the sphere.
 #[test]
 fn maskless_training_fits_the_surface() {
     let dir = tempfile::tempdir().unwrap();

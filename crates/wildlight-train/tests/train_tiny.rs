@@ -4,10 +4,9 @@
 mod tiny_run;
 
 use std::path::Path;
-use tiny_run::{capture, small_config};
+use tiny_run::{capture, mean_abs_sdf_at_gt, small_config};
 use wildlight_data::{Dataset, LoadOptions};
 use wildlight_train::config::{AmbientModel, TrainConfig};
-use wildlight_train::pipeline::eval_sdf;
 use wildlight_train::rays::TrainingRays;
 use wildlight_train::trainer::Trainer;
 
@@ -47,18 +46,6 @@ fn run_options(data: &Path, out: &Path, config: TrainConfig) -> wildlight_train:
         progress: false,
         masks: Default::default(),
     }
-}
-
-/// Mean |φ| of the model at the ground-truth surface vertices: the distance
-/// from the true surface to the learned zero level set (one side of eq. 16,
-/// for a field that is close to a distance function).
-fn mean_abs_sdf_at_gt(trainer: &Trainer, dir: &Path) -> f64 {
-    let mesh = wildlight_mesh::TriMesh::read(dir.join("gt/mesh_normalized.ply")).unwrap();
-    let pts: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();
-    let mut out = vec![0.0f32; pts.len()];
-    let mut ctx = wildlight_fields::FieldContext::new();
-    eval_sdf(&trainer.model, &pts, &mut out, &mut ctx);
-    out.iter().map(|v| v.abs() as f64).sum::<f64>() / out.len() as f64
 }
 
 #[test]

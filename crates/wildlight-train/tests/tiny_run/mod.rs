@@ -5,6 +5,8 @@ use std::path::Path;
 use wildlight_data::{Dataset, LoadOptions};
 use wildlight_synth::{RigOptions, SynthOptions, synthesize};
 use wildlight_train::config::{FieldSize, TrainConfig};
+use wildlight_train::pipeline::eval_sdf;
+use wildlight_train::trainer::Trainer;
 
 /// A synthetic kettle capture of `views` views at `size`², written to `dir` and loaded.
 pub fn capture(dir: &Path, views: usize, size: u32) -> Dataset {
@@ -60,4 +62,16 @@ pub fn small_config(iters: u64) -> TrainConfig {
     c.optim.c2f_start_levels = 3;
     c.optim.c2f_steps_per_level = 20;
     c
+}
+
+/// Mean |φ| of the model at the ground-truth surface vertices: the distance
+/// from the true surface to the learned zero level set (one side of eq. 16,
+/// for a field that is close to a distance function).
+pub fn mean_abs_sdf_at_gt(trainer: &Trainer, dir: &Path) -> f64 {
+    let mesh = wildlight_mesh::TriMesh::read(dir.join("gt/mesh_normalized.ply")).unwrap();
+    let pts: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();
+    let mut out = vec![0.0f32; pts.len()];
+    let mut ctx = wildlight_fields::FieldContext::new();
+    eval_sdf(&trainer.model, &pts, &mut out, &mut ctx);
+    out.iter().map(|v| v.abs() as f64).sum::<f64>() / out.len() as f64
 }
