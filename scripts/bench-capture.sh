@@ -32,17 +32,8 @@ masks=()
   --iters 100000 --time-budget "${budget}m" --snapshot-every "${every}m" \
   --seed "${SEED:-0}" 2> "$out/train.log"
 tail -n 1 "$out/train.log"
-snaps=("$run"/snapshots/step_*)
-[ -e "${snaps[0]}" ] || snaps=()
-steps=$(sed -n 's/^trained \([0-9]*\) steps in .*/\1/p' "$out/train.log")
-if [ ${#snaps[@]} -eq 0 ] || [ "${snaps[-1]##*/}" != "$(printf 'step_%06d' "$steps")" ]; then
-  final="$out/final"
-  mkdir -p "$final"
-  cp "$run/config.toml" "$run/run.json" "$run/checkpoint.safetensors" "$final/"
-  sed -n 's/^trained \([0-9]*\) steps in \([0-9.]*\) s.*/{"step": \1, "seconds": \2}/p' \
-    "$out/train.log" > "$final/snapshot.json"
-  snaps+=("$final")
-fi
+# Score every snapshot, then the final model when no snapshot holds it.
+mapfile -t snaps < <("$root/scripts/bench-snapshots.sh" "$out" "$run")
 : > "$out/curve.jsonl"
 for snap in "${snaps[@]}"; do
   "$W" export --run "$snap" --out "$snap/asset" --normalized --resolution 256 --faces 65536 \

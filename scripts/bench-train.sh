@@ -39,20 +39,8 @@ rm -rf "$run" "$out"/snap_* "$out/final"
   --iters 100000 --time-budget "${budget}m" --snapshot-every "${every}m" \
   --seed "${SEED:-0}" 2> "$out/train.log"
 tail -n 1 "$out/train.log"
-# Score every snapshot, then the final model unless the last snapshot was
-# taken after the last step (the snapshots are named by their step).
-snaps=("$run"/snapshots/step_*)
-[ -e "${snaps[0]}" ] || snaps=()
-steps=$(sed -n 's/^trained \([0-9]*\) steps in .*/\1/p' "$out/train.log")
-if [ ${#snaps[@]} -eq 0 ] || [ "${snaps[-1]##*/}" != "$(printf 'step_%06d' "$steps")" ]; then
-  final="$out/final"
-  mkdir -p "$final"
-  cp "$run/config.toml" "$run/run.json" "$run/checkpoint.safetensors" "$final/"
-  # steps and seconds from the trainer's closing line
-  sed -n 's/^trained \([0-9]*\) steps in \([0-9.]*\) s.*/{"step": \1, "seconds": \2}/p' \
-    "$out/train.log" > "$final/snapshot.json"
-  snaps+=("$final")
-fi
+# Score every snapshot, then the final model when no snapshot holds it.
+mapfile -t snaps < <("$root/scripts/bench-snapshots.sh" "$out" "$run")
 : > "$out/curve.jsonl"
 for snap in "${snaps[@]}"; do
   WILDLIGHT="$W" "$root/scripts/score-model.sh" "$snap" "$cap"
