@@ -171,6 +171,22 @@ fn photos_to_asset_and_a_second_call_continues() {
     );
     assert!(!out.join(".export.partial").exists());
 
+    // A third call with nothing left to train keeps the run and the export.
+    let checkpoint = std::fs::read(out.join("run/checkpoint.safetensors")).unwrap();
+    let o = reconstruct(&out, &config, "50");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["steps"], 50);
+    let third: Vec<&str> = j["stages"].as_array().unwrap()[8..]
+        .iter()
+        .map(|s| s["outcome"].as_str().unwrap())
+        .collect();
+    assert_eq!(third, ["reused", "resumed", "reused", "done"]);
+    assert_eq!(
+        std::fs::read(out.join("run/checkpoint.safetensors")).unwrap(),
+        checkpoint
+    );
+
     // Another photo folder into the same --out is refused.
     let other = dir.path().join("other-photos");
     std::fs::create_dir(&other).unwrap();

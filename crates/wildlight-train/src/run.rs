@@ -424,6 +424,7 @@ pub fn train(opts: &RunOptions) -> anyhow::Result<RunSummary> {
 
     let start = Instant::now();
     let first_step = trainer.step;
+    let first_plan = trainer.planned_total_steps();
     /// Steps timed before a time budget's step count is estimated.
     const PLAN_AFTER_STEPS: u64 = 20;
     let bar = if opts.progress {
@@ -496,10 +497,14 @@ pub fn train(opts: &RunOptions) -> anyhow::Result<RunSummary> {
         last = Some(stats);
     }
     bar.finish_and_clear();
-    trainer.save_checkpoint(&ckpt)?;
-    if config.output.preview_every > 0 {
-        let step = trainer.step;
-        write_step_preview(&mut trainer, &preview_view, &opts.out, step)?;
+    // A resumed run with nothing left to do leaves its checkpoint (and so
+    // whatever was made from it, e.g. an export) as it was.
+    if trainer.step > first_step || trainer.planned_total_steps() != first_plan || !opts.resume {
+        trainer.save_checkpoint(&ckpt)?;
+        if config.output.preview_every > 0 {
+            let step = trainer.step;
+            write_step_preview(&mut trainer, &preview_view, &opts.out, step)?;
+        }
     }
     Ok(RunSummary {
         steps: trainer.step,
