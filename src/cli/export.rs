@@ -5,6 +5,7 @@ use anyhow::{Context, bail};
 use std::path::PathBuf;
 use wildlight_export::{AtlasOptions, ExportOptions, MarchingOptions, export_to_dir};
 use wildlight_train::inference::{ExportSource, TrainedRun};
+use wildlight_train::support::BackgroundSupportSearch;
 
 /// Options of `wildlight export`.
 #[derive(clap::Args, Debug)]
@@ -124,17 +125,44 @@ pub fn run_scale_mat(trained: &TrainedRun) -> anyhow::Result<glam::Mat4> {
         .context("the run's capture has no cameras")
 }
 
-/// Whether the run was trained without masks (its surface then holds what
-/// the object stands on).
-fn trained_without_masks(trained: &TrainedRun) -> bool {
-    trained.info.masks.maskless()
+/// `options` set to keep the object alone when `object_only` is asked for,
+/// or by default for a run trained without masks (its surface then holds
+/// what the object stands on, unless `keep_support`). The support plane is
+/// then also looked for in the run's background (the table beyond the
+/// sphere), for the surface may hold too little of it.
+pub fn with_object_only(
+    trained: &mut TrainedRun,
+    options: ExportOptions,
+    object_only: bool,
+    keep_support: bool,
+) -> anyhow::Result<ExportOptions> {
+    let object_only = object_only || (!keep_support && trained.info.masks.maskless());
+    let known_support = if object_only && trained.model.background.is_some() {
+        let cameras =
+            wildlight_data::Dataset::load_cameras(&trained.info.data).with_context(|| {
+                format!(
+                    "cannot read the cameras of the run's capture {}",
+                    trained.info.data.display()
+                )
+            })?;
+        trained
+            .support_from_background(&cameras, &BackgroundSupportSearch::default())
+            .map(|s| s.plane)
+    } else {
+        None
+    };
+    Ok(ExportOptions {
+        object_only,
+        known_support,
+        ..options
+    })
 }
 
 /// Runs `wildlight export`.
 pub fn run(args: Args) -> anyhow::Result<()> {
     // Check the options before the (slow) loading of the run.
     args.asset.check()?;
-    let trained = TrainedRun::load(&args.run)?;
+    let mut trained = TrainedRun::load(&args.run)?;
     let options = args.asset.options(
         run_scale_mat(&trained)?,
         !args.normalized,
@@ -142,10 +170,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     )?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
-    let options = ExportOptions {
-        object_only: args.object_only || (!args.keep_support && trained_without_masks(&trained)),
-        ..options
-    };
+    let options = with_object_only(&mut trained, options, args.object_only, args.keep_support)?;
     let source = ExportSource::new(&trained);
     let (files, report) = export_to_dir(&source, &options, &args.out)
         .with_context(|| format!("export of {} failed", args.run.display()))?;

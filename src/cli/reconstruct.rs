@@ -31,7 +31,7 @@ use wildlight_train::config::parse_duration;
 use wildlight_train::inference::{ExportSource, TrainedRun};
 use wildlight_train::run::{CHECKPOINT_FILE, MaskChoice, RunOptions, planned_iters, train};
 
-use crate::cli::export::{AssetArgs, run_scale_mat};
+use crate::cli::export::{AssetArgs, run_scale_mat, with_object_only};
 use crate::cli::import::ImportArgs;
 use crate::display::{exposure_for, rgb, tile, tone_map};
 
@@ -355,7 +355,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
     // 3. Export.
     let t = Instant::now();
-    let trained = TrainedRun::load(&layout.run)?;
+    let mut trained = TrainedRun::load(&layout.run)?;
     let gain = trained.model.gamma();
     if layout.exported() {
         say(&format!(
@@ -365,10 +365,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         state.record(&layout, "export", "reused", t, None)?;
     } else {
         say(&format!("3/4 export into {}", layout.export.display()));
-        let options = ExportOptions {
-            object_only: !args.keep_support && trained.info.masks.maskless(),
-            ..args.asset.options(run_scale_mat(&trained)?, true, bars)?
-        };
+        let options = args.asset.options(run_scale_mat(&trained)?, true, bars)?;
+        let options = with_object_only(&mut trained, options, false, args.keep_support)?;
         let report = export_whole(&trained, &options, &layout)?;
         state.record(
             &layout,

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use glam::Mat4;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
-use wildlight_mesh::{SupportSearch, TriMesh};
+use wildlight_mesh::{SupportPlane, SupportSearch, TriMesh};
 
 use crate::ExportError;
 use crate::atlas::{AtlasOptions, unwrap};
@@ -32,6 +32,10 @@ pub struct ExportOptions {
     /// everything below it, and every piece but the largest (default false;
     /// the CLI turns it on for runs trained without masks).
     pub object_only: bool,
+    /// With `object_only`: the support plane known from elsewhere
+    /// (normalized frame), cut by when the surface holds no plane that
+    /// agrees with it ([`SupportSearch::known`]); default none.
+    pub known_support: Option<SupportPlane>,
     /// Atlas settings (texture size default 2048).
     pub atlas: AtlasOptions,
     /// Texel projection settings.
@@ -52,6 +56,7 @@ impl Default for ExportOptions {
             max_faces: 131_072,
             min_component_fraction: 0.02,
             object_only: false,
+            known_support: None,
             atlas: AtlasOptions::default(),
             bake: BakeOptions::default(),
             scale_mat: Mat4::IDENTITY,
@@ -93,9 +98,13 @@ pub struct ExportReport {
     pub sdf_evaluations: u64,
     /// Narrow-band blocks evaluated / all blocks.
     pub active_blocks: [u64; 2],
-    /// With [`ExportOptions::object_only`]: the support plane found
-    /// (normalized frame: unit normal towards the object, offset), if any.
+    /// With [`ExportOptions::object_only`]: the support plane cut by (the
+    /// surface's own or the known one; normalized frame: unit normal
+    /// towards the object, offset), if any.
     pub support_plane: Option<([f32; 3], f32)>,
+    /// Where [`ExportReport::support_plane`] came from: `"surface"` (found
+    /// on the extracted surface) or `"known"` ([`ExportOptions::known_support`]).
+    pub support_source: Option<String>,
     /// With [`ExportOptions::object_only`]: the surface area removed as
     /// support, outside the sphere and as other pieces (normalized units²).
     pub removed_area: Option<[f64; 3]>,
@@ -166,8 +175,19 @@ pub fn export_asset<S: FieldSource + ?Sized>(
     let bar = stage_bar(&multi, "clean-up");
     bar.set_length(1);
     let fine = if options.object_only {
-        let cut = fine.object_only(&SupportSearch::new(glam::Vec3::ZERO, 1.0));
+        let cut = fine.object_only(&SupportSearch {
+            known: options.known_support,
+            ..SupportSearch::new(glam::Vec3::ZERO, 1.0)
+        });
         report.support_plane = cut.plane.map(|p| (p.normal.to_array(), p.offset));
+        report.support_source = cut.plane.map(|_| {
+            if cut.plane_from_surface {
+                "surface"
+            } else {
+                "known"
+            }
+            .to_string()
+        });
         report.removed_area = Some([cut.support_area, cut.outside_area, cut.fragment_area]);
         cut.mesh
     } else {

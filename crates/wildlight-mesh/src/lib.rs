@@ -20,5 +20,5 @@ mod trimesh;
 mod weld;
 
 pub use error::MeshError;
-pub use support::{ObjectOnly, SupportPlane, SupportSearch};
+pub use support::{ObjectOnly, SupportPlane, SupportSearch, fit_plane};
 pub use trimesh::{Aabb, TriMesh};

@@ -14,6 +14,12 @@
 //! refines it by a least-squares fit of its inliers, removes every triangle
 //! on or below it and everything outside the sphere, and keeps the largest
 //! connected piece.
+//!
+//! A support that the surface barely holds (a run without masks often
+//! leaves the table to the background model, and the SDF keeps at most a
+//! ragged patch of it) can be given instead: [`SupportSearch::known`], e.g.
+//! a plane fitted by [`fit_plane`] to points seen on the table. The
+//! surface's own plane is used when it agrees with the known one.
 
 use glam::{DVec3, Vec3};
 use rand::{Rng, SeedableRng};
@@ -32,6 +38,16 @@ pub struct SupportPlane {
 }
 
 impl SupportPlane {
+    /// Whether `other` is the same plane within the tolerances of `search`:
+    /// normals within its angle, offsets (at its centre) within twice its
+    /// distance tolerance.
+    pub fn agrees_with(&self, other: &SupportPlane, search: &SupportSearch) -> bool {
+        let cos_tol = search.angle_tolerance_deg.to_radians().cos();
+        self.normal.dot(other.normal) >= cos_tol
+            && (self.height(search.center) - other.height(search.center)).abs()
+                <= 2.0 * search.distance_tolerance * search.radius
+    }
+
     /// Signed distance of `p` above the plane (positive on the object's side).
     pub fn height(&self, p: Vec3) -> f32 {
         self.normal.dot(p) - self.offset
@@ -65,6 +81,11 @@ pub struct SupportSearch {
     pub hypotheses: usize,
     /// Seed of the draws.
     pub seed: u64,
+    /// A support plane known from elsewhere (e.g. fitted to what the
+    /// background shows): cut by it when the surface holds no plane that
+    /// agrees with it (within the angle tolerance and twice the distance
+    /// tolerance).
+    pub known: Option<SupportPlane>,
 }
 
 impl SupportSearch {
@@ -80,6 +101,7 @@ impl SupportSearch {
             cut_margin: 0.01,
             hypotheses: 512,
             seed: 0,
+            known: None,
         }
     }
 }
@@ -89,8 +111,10 @@ impl SupportSearch {
 pub struct ObjectOnly {
     /// The object: inside the sphere, above the support, one connected piece.
     pub mesh: TriMesh,
-    /// The support plane, when one was found.
+    /// The support plane cut by, when there was one.
     pub plane: Option<SupportPlane>,
+    /// Whether [`ObjectOnly::plane`] is the surface's own (else the known one).
+    pub plane_from_surface: bool,
     /// Area removed as support (on or below the plane).
     pub support_area: f64,
     /// Area removed as outside the sphere.
@@ -229,7 +253,12 @@ impl TriMesh {
     /// and everything below it removed, then every piece but the largest.
     pub fn object_only(&self, search: &SupportSearch) -> ObjectOnly {
         let areas = self.triangle_areas();
-        let plane = self.find_support_plane(search);
+        let found = self.find_support_plane(search);
+        let (plane, plane_from_surface) = match (found, search.known) {
+            (Some(f), Some(k)) if f.agrees_with(&k, search) => (Some(f), true),
+            (_, Some(k)) => (Some(k), false),
+            (f, None) => (f, f.is_some()),
+        };
         let margin = (search.cut_margin + search.distance_tolerance) * search.radius;
         let mut keep = vec![true; self.triangles.len()];
         let (mut support_area, mut outside_area) = (0.0, 0.0);
@@ -253,11 +282,65 @@ impl TriMesh {
         ObjectOnly {
             mesh,
             plane,
+            plane_from_surface,
             support_area,
             outside_area,
             fragment_area,
         }
     }
+}
+
+/// A plane fitted to points by RANSAC: of `hypotheses` planes through three
+/// of the points (a fixed pseudo-random sequence from `seed`), the one with
+/// the most points within `tolerance`, refined by a least-squares fit of
+/// those points. Returns the plane (its normal's sign arbitrary) and its
+/// inliers' indices, or `None` for fewer than three points or no plane.
+pub fn fit_plane(
+    points: &[Vec3],
+    tolerance: f32,
+    hypotheses: usize,
+    seed: u64,
+) -> Option<(SupportPlane, Vec<usize>)> {
+    let n = points.len();
+    if n < 3 {
+        return None;
+    }
+    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    let inliers_of = |normal: Vec3, offset: f32| -> Vec<usize> {
+        (0..n)
+            .filter(|&i| (normal.dot(points[i]) - offset).abs() <= tolerance)
+            .collect()
+    };
+    let mut best: Option<(usize, Vec3, f32)> = None;
+    for _ in 0..hypotheses {
+        let [a, b, c] = [0; 3].map(|_| points[rng.random_range(0..n)]);
+        let Some(normal) = (b - a).cross(c - a).try_normalize() else {
+            continue;
+        };
+        let offset = normal.dot(a);
+        let count = (0..n)
+            .filter(|&i| (normal.dot(points[i]) - offset).abs() <= tolerance)
+            .count();
+        if best.is_none_or(|(k, _, _)| count > k) {
+            best = Some((count, normal, offset));
+        }
+    }
+    let (_, normal, offset) = best?;
+    let inliers = inliers_of(normal, offset);
+    let mean = inliers.iter().map(|&i| points[i].as_dvec3()).sum::<DVec3>() / inliers.len() as f64;
+    let mut cov = [[0.0f64; 3]; 3];
+    for &i in &inliers {
+        let d = points[i].as_dvec3() - mean;
+        for (r, row) in cov.iter_mut().enumerate() {
+            for (c, v) in row.iter_mut().enumerate() {
+                *v += d[r] * d[c];
+            }
+        }
+    }
+    let normal = least_spread_direction(cov, normal.as_dvec3()).as_vec3();
+    let offset = normal.dot(mean.as_vec3());
+    let inliers = inliers_of(normal, offset);
+    Some((SupportPlane { normal, offset }, inliers))
 }
 
 /// The eigenvector of the symmetric 3×3 matrix `m` with the smallest
@@ -428,6 +511,122 @@ mod tests {
             kept > 0.95 * ball_area && kept < 1.0001 * ball_area,
             "{kept} of {ball_area}"
         );
+    }
+
+    /// An open cylinder of `radius` around the y axis from `y0` up to `y1`.
+    fn tube(radius: f32, y0: f32, y1: f32, rings: u32, segments: u32) -> TriMesh {
+        let mut positions = Vec::new();
+        for i in 0..=rings {
+            let y = y0 + (y1 - y0) * i as f32 / rings as f32;
+            for j in 0..segments {
+                let phi = std::f32::consts::TAU * j as f32 / segments as f32;
+                positions.push(Vec3::new(radius * phi.cos(), y, radius * phi.sin()));
+            }
+        }
+        let mut triangles = Vec::new();
+        for i in 0..rings {
+            for j in 0..segments {
+                let a = i * segments + j;
+                let b = i * segments + (j + 1) % segments;
+                triangles.push([a, a + segments, b]);
+                triangles.push([b, a + segments, b + segments]);
+            }
+        }
+        TriMesh::new(positions, triangles)
+    }
+
+    #[test]
+    fn a_known_plane_cuts_what_the_surface_holds_below_it() {
+        // A vase's wall that runs on below the table top (y = −0.5), with no
+        // table in the surface: nothing to find, the known plane cuts.
+        let wall = tube(0.3, -0.9, 0.5, 56, 48);
+        let known = SupportPlane {
+            normal: Vec3::Y,
+            offset: -0.5,
+        };
+        let search = SupportSearch {
+            known: Some(known),
+            ..SupportSearch::new(Vec3::ZERO, 1.0)
+        };
+        assert_eq!(wall.find_support_plane(&search), None);
+        let result = wall.object_only(&search);
+        assert_eq!(result.plane, Some(known));
+        assert!(!result.plane_from_surface);
+        let lowest = result
+            .mesh
+            .positions
+            .iter()
+            .map(|p| p.y)
+            .fold(f32::MAX, f32::min);
+        assert!(lowest > -0.5 + 0.02 && lowest < -0.5 + 0.05, "{lowest}");
+        // The wall above the cut is kept: 1.0 − 0.02 of its 1.4 height.
+        let expected = std::f64::consts::TAU * 0.3 * 0.98;
+        let kept = result.mesh.total_area();
+        assert!((kept / expected - 1.0).abs() < 0.03, "{kept} vs {expected}");
+        // Without the known plane, nothing is cut.
+        let alone = wall.object_only(&SupportSearch::new(Vec3::ZERO, 1.0));
+        assert_eq!(alone.plane, None);
+    }
+
+    #[test]
+    fn the_surfaces_plane_is_kept_when_it_agrees_with_the_known_one() {
+        let scene = merged(&sphere(Vec3::ZERO, 0.4, 24, 48), &plane_grid(-0.5, 1.0, 40));
+        // Known a little off (0.01 lower, 2° tilted): the surface's own wins.
+        let tilt = Vec3::new(0.0, 2f32.to_radians().cos(), 2f32.to_radians().sin());
+        let near = SupportPlane {
+            normal: tilt,
+            offset: -0.51,
+        };
+        let search = |known| SupportSearch {
+            known: Some(known),
+            ..SupportSearch::new(Vec3::ZERO, 1.0)
+        };
+        let result = scene.object_only(&search(near));
+        assert!(result.plane_from_surface);
+        assert!((result.plane.unwrap().offset + 0.5).abs() < 1e-4);
+        // Known far off (0.1 lower): the known one is cut by.
+        let far = SupportPlane {
+            normal: Vec3::Y,
+            offset: -0.6,
+        };
+        let result = scene.object_only(&search(far));
+        assert!(!result.plane_from_surface);
+        assert_eq!(result.plane, Some(far));
+    }
+
+    #[test]
+    fn a_plane_is_fitted_through_outliers() {
+        // 300 points on y = 0.2x − 0.3 (noise ±0.005) among 200 scattered.
+        let mut rng = Pcg64Mcg::seed_from_u64(7);
+        let mut points = Vec::new();
+        for _ in 0..300 {
+            let (x, z) = (rng.random_range(-2.0..2.0), rng.random_range(-2.0..2.0));
+            let noise = rng.random_range(-0.005..0.005);
+            points.push(Vec3::new(x, 0.2 * x - 0.3 + noise, z));
+        }
+        for _ in 0..200 {
+            points.push(Vec3::new(
+                rng.random_range(-2.0..2.0),
+                rng.random_range(-2.0..2.0),
+                rng.random_range(-2.0..2.0),
+            ));
+        }
+        let (plane, inliers) = fit_plane(&points, 0.02, 200, 0).expect("a plane");
+        let truth = Vec3::new(-0.2, 1.0, 0.0).normalize();
+        let sign = plane.normal.dot(truth).signum();
+        assert!(sign * plane.normal.dot(truth) > 0.9999, "{plane:?}");
+        // y = 0.2x − 0.3 ⇔ (−0.2, 1, 0)·p = −0.3
+        assert!(
+            (sign * plane.offset - (-0.3 / 1.04f32.sqrt())).abs() < 2e-3,
+            "{plane:?}"
+        );
+        assert!(
+            inliers.len() >= 300 && inliers.len() < 320,
+            "{}",
+            inliers.len()
+        );
+        assert!(inliers.iter().filter(|&&i| i < 300).count() == 300);
+        assert_eq!(fit_plane(&points[..2], 0.02, 10, 0), None);
     }
 
     #[test]

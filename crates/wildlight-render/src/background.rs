@@ -239,6 +239,42 @@ pub fn background_forward<T: Real>(
     }
 }
 
+/// The distance along each ray at which its background weights (from
+/// [`background_forward`]) reach `fraction` of their sum, interpolated
+/// within the section where their running sum crosses it (a depth quantile
+/// of what the background shows: 0.5 is the median); `None` for a ray whose
+/// background holds no weight.
+pub fn background_depth_quantile<T: Real>(
+    samples: &BackgroundSamples<T>,
+    weights: &[T],
+    fraction: f64,
+) -> Vec<Option<f64>> {
+    let per_ray = samples.per_ray.max(1);
+    assert_eq!(weights.len(), samples.len(), "background: weight count");
+    weights
+        .chunks(per_ray)
+        .enumerate()
+        .map(|(r, w)| {
+            let total: f64 = w.iter().map(|v| v.to_f64()).sum();
+            if total.is_nan() || total <= 0.0 {
+                return None;
+            }
+            let target = fraction * total;
+            let mut sum = 0.0;
+            for (j, wj) in w.iter().enumerate() {
+                let wj = wj.to_f64();
+                let k = r * per_ray + j;
+                if sum + wj >= target && wj > 0.0 {
+                    let part = ((target - sum) / wj).clamp(0.0, 1.0);
+                    return Some(samples.t[k].to_f64() + part * samples.delta[k].to_f64());
+                }
+                sum += wj;
+            }
+            Some(samples.t[r * per_ray + per_ray - 1].to_f64())
+        })
+        .collect()
+}
+
 /// Gradients of [`background_backward`].
 #[derive(Clone, Debug, Default)]
 pub struct BackgroundGrads<T> {

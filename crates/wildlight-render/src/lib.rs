@@ -116,7 +116,7 @@ pub(crate) fn test_uniform(mut state: u64) -> impl FnMut() -> f64 {
 
 pub use background::{
     BackgroundGrads, BackgroundInputs, BackgroundSamples, BackgroundSettings, background_backward,
-    background_forward,
+    background_depth_quantile, background_forward,
 };
 pub use composite::{
     RayMaps, acc_weight_backward, add_background, add_background_backward, composite,

@@ -5,7 +5,8 @@
 use wildlight_render::{
     BackgroundInputs, BackgroundSamples, BackgroundSettings, CoarseSamples, NeusInputs,
     NeusSettings, NeusWeights, OccupancyGrid, OccupancySettings, RaySamples, Rays, RefreshMode,
-    Sampler, SamplerSettings, add_background, background_forward, composite, sharpness,
+    Sampler, SamplerSettings, add_background, background_depth_quantile, background_forward,
+    composite, sharpness,
 };
 
 fn sphere(p: [f32; 3]) -> f32 {
@@ -111,4 +112,49 @@ fn a_miss_sees_the_background_alone_and_an_opaque_object_hides_it() {
     assert_eq!(colour[2], background[2]);
     // The background is not trivially black.
     assert!(background.iter().all(|b| b.iter().all(|&v| v > 0.05)));
+}
+
+/// The depth quantile of a background that is empty up to a wall at
+/// distance 6 along the ray and dense beyond: the median lands in the
+/// wall's first section; a background with no weight has no depth.
+#[test]
+fn the_background_depth_is_where_its_weights_pile_up() {
+    let settings = BackgroundSettings {
+        samples: 256,
+        far_radius: 1000.0,
+    };
+    let mut samples = BackgroundSamples::<f64>::new();
+    // from z = 3 straight through the centre: the background starts at t = 4
+    samples.place(&[[0.0, 0.0, 3.0]], &[[0.0, 0.0, -1.0]], &settings, None);
+    let wall = 6.0;
+    let density: Vec<f64> = samples
+        .t
+        .iter()
+        .map(|&t| if t >= wall { 50.0 } else { 0.0 })
+        .collect();
+    let zero = vec![[0.0f64; 3]; samples.len()];
+    let inputs = BackgroundInputs {
+        samples: &samples,
+        density: &density,
+        ambient: &zero,
+        flash_response: &zero,
+        light_energy: &[[0.0; 3]],
+    };
+    let (mut colour, mut weights) = (vec![[0.0f64; 3]; 1], Vec::new());
+    background_forward(&inputs, 0.0, &mut colour, &mut weights);
+    let first = samples.t.iter().position(|&t| t >= wall).unwrap();
+    let (t0, t1) = (samples.t[first], samples.t[first + 1]);
+    for fraction in [0.2, 0.5, 0.8] {
+        let depth = background_depth_quantile(&samples, &weights, fraction)[0].unwrap();
+        assert!(
+            depth >= t0 && depth <= t1,
+            "{fraction}: {depth} outside [{t0}, {t1}]"
+        );
+    }
+    // The quantiles rise with the fraction, inside the first section that
+    // holds 1 − e^(−50 δ) of the weight.
+    let q = |f| background_depth_quantile(&samples, &weights, f)[0].unwrap();
+    assert!(q(0.2) < q(0.5) && q(0.5) < q(0.8));
+    let empty = vec![0.0f64; samples.len()];
+    assert_eq!(background_depth_quantile(&samples, &empty, 0.5), vec![None]);
 }

@@ -17,7 +17,8 @@ use rand_pcg::Pcg64;
 use wildlight_fields::{FieldContext, FieldGrads, NeuralField};
 use wildlight_render::{
     BackgroundGrads, BackgroundInputs, BackgroundSamples, BackgroundSettings, SH_DEG4_LEN,
-    add_background, add_background_backward, background_backward, background_forward, sh_deg4,
+    add_background, add_background_backward, background_backward, background_depth_quantile,
+    background_forward, sh_deg4,
 };
 
 /// Outputs of the background field per sample: σ, a (RGB), ρ (RGB).
@@ -179,6 +180,13 @@ impl<T: Float + Default> BackgroundPass<T> {
         }
         field.backward(&mut self.ctx, &self.d_out, field_grads, None, None);
         self.grads.log_gain
+    }
+
+    /// The depth of each ray's background in the last pass: where its
+    /// weights reach `fraction` of their sum
+    /// ([`wildlight_render::background_depth_quantile`]).
+    pub fn depth_quantile(&self, fraction: f64) -> Vec<Option<f64>> {
+        background_depth_quantile(&self.samples, &self.weights, fraction)
     }
 
     /// Forgets the last pass (a pass of a model without a background).

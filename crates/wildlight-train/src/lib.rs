@@ -40,6 +40,7 @@ pub mod render_view;
 pub mod retired;
 pub mod run;
 pub mod smoothness;
+pub mod support;
 pub mod trainer;
 pub mod visual_hull;
 
