@@ -9,41 +9,6 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-/// A small model, so that the test trains in seconds.
-const TINY_CONFIG: &str = "\
-batch_rays = 256
-eikonal_points = 64
-[model.sdf]
-levels = 8
-log2_table_size = 15
-base_resolution = 8
-finest_resolution = 128
-hidden = [32]
-[model.material]
-levels = 6
-log2_table_size = 14
-base_resolution = 8
-finest_resolution = 64
-hidden = [32]
-[model.ambient]
-levels = 4
-log2_table_size = 12
-base_resolution = 8
-finest_resolution = 32
-hidden = [32]
-[model.ambient_room]
-levels = 3
-log2_table_size = 12
-base_resolution = 8
-finest_resolution = 32
-hidden = []
-[sampling]
-grid_resolution = 32
-[output]
-preview_every = 0
-checkpoint_every = 20
-";
-
 fn has_colmap() -> bool {
     std::env::split_paths(&std::env::var_os("PATH").unwrap_or_default())
         .any(|d| d.join("colmap").is_file())
@@ -82,7 +47,7 @@ fn photos_to_asset_and_a_second_call_continues() {
     }
     let dir = tempfile::tempdir().unwrap();
     let config = dir.path().join("tiny.toml");
-    std::fs::write(&config, TINY_CONFIG).unwrap();
+    std::fs::write(&config, common::TINY_MODEL_CONFIG).unwrap();
     let out = dir.path().join("vase");
     let o = reconstruct(&out, &config, "30");
     assert!(o.status.success(), "{}", stderr(&o));

@@ -14,6 +14,8 @@ enum Which {
     Fields(bench_fields::Args),
     /// Asset export: wall time, peak memory and (--roundtrip) the round trip.
     Export(bench_export::Args),
+    /// Training: rays per second and a step's time by phase.
+    Train(bench_train::Args),
 }
 
 /// Runs the chosen benchmark.
@@ -21,6 +23,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     match args.which {
         Which::Fields(a) => bench_fields::run(a),
         Which::Export(a) => bench_export::run(a),
+        Which::Train(a) => bench_train::run(a),
     }
 }
 
@@ -29,3 +32,6 @@ mod bench_fields;
 
 #[path = "bench_export.rs"]
 mod bench_export;
+
+#[path = "bench_train.rs"]
+mod bench_train;

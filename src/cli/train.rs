@@ -66,6 +66,17 @@ pub enum MasksArg {
     Ignore,
 }
 
+impl MasksArg {
+    /// The trainer's mask choice for `--masks` (absent: the capture's own).
+    pub fn choice(arg: Option<MasksArg>) -> MaskChoice {
+        match arg {
+            None => MaskChoice::Auto,
+            Some(MasksArg::Use) => MaskChoice::Use,
+            Some(MasksArg::Ignore) => MaskChoice::Ignore,
+        }
+    }
+}
+
 /// The comment that heads `--print-config`'s output.
 const CONFIG_HEADER: &str = "\
 # wildlight train: the resolved configuration (defaults, then --config, then
@@ -105,11 +116,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         resume: args.resume,
         resume_iters: args.iters,
         progress: !args.quiet && std::io::IsTerminal::is_terminal(&std::io::stderr()),
-        masks: match args.masks {
-            None => MaskChoice::Auto,
-            Some(MasksArg::Use) => MaskChoice::Use,
-            Some(MasksArg::Ignore) => MaskChoice::Ignore,
-        },
+        masks: MasksArg::choice(args.masks),
     })?;
     let last = summary.last.as_ref();
     eprintln!(

@@ -79,3 +79,39 @@ pub fn tiny_synth(scene: &str, out: &Path) -> Command {
         .arg("--quiet");
     command
 }
+
+/// A training configuration of a small model, so that a test trains in
+/// seconds.
+pub const TINY_MODEL_CONFIG: &str = "\
+batch_rays = 256
+eikonal_points = 64
+[model.sdf]
+levels = 8
+log2_table_size = 15
+base_resolution = 8
+finest_resolution = 128
+hidden = [32]
+[model.material]
+levels = 6
+log2_table_size = 14
+base_resolution = 8
+finest_resolution = 64
+hidden = [32]
+[model.ambient]
+levels = 4
+log2_table_size = 12
+base_resolution = 8
+finest_resolution = 32
+hidden = [32]
+[model.ambient_room]
+levels = 3
+log2_table_size = 12
+base_resolution = 8
+finest_resolution = 32
+hidden = []
+[sampling]
+grid_resolution = 32
+[output]
+preview_every = 0
+checkpoint_every = 20
+";

@@ -26,6 +26,7 @@
 pub mod ambient;
 pub mod averaging;
 pub mod background;
+pub mod bench;
 pub mod config;
 pub mod float;
 pub mod inference;
