@@ -59,6 +59,17 @@ fn the_training_benchmark_reports_rays_per_second_and_phases() {
                 "{sum} of {step_ms}: {rep}"
             );
             assert!(rep["samples_per_ray"].as_f64().unwrap() > 0.0);
+            // The background's time is part of forward + backward, and only
+            // a maskless run has one.
+            let background = rep["phase_ms"]["background"].as_f64().unwrap();
+            if maskless {
+                assert!(
+                    background > 0.0 && background < phases[1] + phases[2],
+                    "{rep}"
+                );
+            } else {
+                assert_eq!(background, 0.0, "{rep}");
+            }
         }
         // The reported rays per second is the median of the two (their mean).
         let each: Vec<f64> = reps

@@ -92,6 +92,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "a step (ms):      setup {:.1}, forward {:.1}, backward {:.1}, priors {:.1}, visual hull {:.1}, update {:.1}",
         p.setup, p.forward, p.backward, p.priors, p.hull, p.update
     );
+    if report.maskless {
+        let step = p.setup + p.forward + p.backward + p.priors + p.hull + p.update;
+        println!(
+            "the background:   {:.1} ms of forward + backward ({:.0} % of a step)",
+            p.background,
+            100.0 * p.background / step.max(1e-9)
+        );
+    }
     let each: Vec<String> = report
         .reps
         .iter()

@@ -65,6 +65,10 @@ pub struct BackgroundPass<T> {
     grads: BackgroundGrads<T>,
     d_background: Vec<[T; 3]>,
     d_out: Vec<T>,
+    /// Wall time spent in [`BackgroundPass::forward`] and
+    /// [`BackgroundPass::backward`] since the last
+    /// [`BackgroundPass::take_seconds`].
+    seconds: f64,
 }
 
 impl<T: Float + Default> BackgroundPass<T> {
@@ -84,6 +88,7 @@ impl<T: Float + Default> BackgroundPass<T> {
         acc_weight: &[T],
         colour: &mut [[T; 3]],
     ) {
+        let start = std::time::Instant::now();
         match jitter_seed {
             Some(seed) => {
                 let mut rng = Pcg64::seed_from_u64(jitter_stream(seed));
@@ -132,6 +137,7 @@ impl<T: Float + Default> BackgroundPass<T> {
             self.ambient_colour.push(sum);
         }
         add_background(acc_weight, &self.colour, colour);
+        self.seconds += start.elapsed().as_secs_f64();
     }
 
     /// Backward pass of the last [`BackgroundPass::forward`] from ∂L/∂C
@@ -148,6 +154,7 @@ impl<T: Float + Default> BackgroundPass<T> {
         d_acc_weight: &mut [T],
         field_grads: &mut FieldGrads<T>,
     ) -> T {
+        let start = std::time::Instant::now();
         self.d_background.clear();
         self.d_background.resize(d_colour.len(), [T::ZERO; 3]);
         add_background_backward(
@@ -179,7 +186,14 @@ impl<T: Float + Default> BackgroundPass<T> {
             self.d_out.extend_from_slice(&self.grads.flash_response[k]);
         }
         field.backward(&mut self.ctx, &self.d_out, field_grads, None, None);
+        self.seconds += start.elapsed().as_secs_f64();
         self.grads.log_gain
+    }
+
+    /// The wall time of the forward and backward passes since the last
+    /// call (seconds), and starts counting again.
+    pub fn take_seconds(&mut self) -> f64 {
+        std::mem::take(&mut self.seconds)
     }
 
     /// The depth of each ray's background in the last pass: where its

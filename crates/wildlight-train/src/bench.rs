@@ -119,6 +119,7 @@ pub fn bench_train(
         priors: median_of(&|r| r.phase_ms.priors),
         hull: median_of(&|r| r.phase_ms.hull),
         update: median_of(&|r| r.phase_ms.update),
+        background: median_of(&|r| r.phase_ms.background),
     };
     Ok(TrainBenchReport {
         threads: rayon::current_num_threads(),
@@ -140,6 +141,7 @@ fn add_times(sum: &mut StepTimes, t: &StepTimes) {
     sum.priors += t.priors;
     sum.hull += t.hull;
     sum.update += t.update;
+    sum.background += t.background;
 }
 
 fn scale_times(t: &StepTimes, k: f64) -> StepTimes {
@@ -150,6 +152,7 @@ fn scale_times(t: &StepTimes, k: f64) -> StepTimes {
         priors: t.priors * k,
         hull: t.hull * k,
         update: t.update * k,
+        background: t.background * k,
     }
 }
 

@@ -85,6 +85,9 @@ pub struct StepTimes {
     pub hull: f64,
     /// The finiteness check and the Adam update of every group.
     pub update: f64,
+    /// Of `forward` and `backward`: the background's part (a run without
+    /// masks, SPEC §6; 0 with masks).
+    pub background: f64,
 }
 
 /// Milliseconds from `start` to `end`.
@@ -584,6 +587,7 @@ impl Trainer {
             priors: ms(t_priors, t_hull),
             hull: ms(t_hull, t_update),
             update: ms(t_update, t_end),
+            background: 1e3 * self.pipeline.background.take_seconds(),
         };
         StepStats {
             step,
