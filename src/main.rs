@@ -7,6 +7,7 @@ use clap::{Parser, Subcommand};
 
 mod cli;
 mod display;
+mod field_source;
 mod plot;
 
 /// Inverse rendering with a flashlight: shape and materials from

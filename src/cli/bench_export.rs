@@ -28,7 +28,8 @@ use wildlight_export::{
     flash_round_trip, level_set_reference, project_to_level_set, read_glb,
 };
 use wildlight_mesh::TriMesh;
-use wildlight_train::inference::{ExportSource, TrainedRun};
+use crate::field_source::ExportSource;
+use wildlight_train::inference::TrainedRun;
 
 use crate::cli::export::{export_options, run_scale_mat};
 

@@ -13,7 +13,8 @@ use wildlight_eval::{
 use wildlight_export::{AtlasOptions, ExportOptions, MarchingOptions, export_to_dir};
 use wildlight_synth::{RigOptions, SynthOptions, synthesize};
 use wildlight_train::TrainConfig;
-use wildlight_train::inference::{ExportSource, RenderedView, TrainedRun, render_views_to_dir};
+use crate::field_source::ExportSource;
+use wildlight_train::inference::{RenderedView, TrainedRun, render_views_to_dir};
 use wildlight_train::run::{RunOptions, planned_iters, train};
 
 use crate::display::{exposure_for, rgb, tile, tone_map};

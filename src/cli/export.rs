@@ -4,7 +4,8 @@
 use anyhow::{Context, bail};
 use std::path::PathBuf;
 use wildlight_export::{AtlasOptions, ExportOptions, MarchingOptions, export_to_dir};
-use wildlight_train::inference::{ExportSource, TrainedRun};
+use crate::field_source::ExportSource;
+use wildlight_train::inference::TrainedRun;
 use wildlight_train::support::BackgroundSupportSearch;
 
 /// Options of `wildlight export`.

@@ -28,7 +28,8 @@ use wildlight_export::{AssetTracer, ExportOptions, FlashSettings, LightingSettin
 use wildlight_pathtrace::EnvMap;
 use wildlight_train::TrainConfig;
 use wildlight_train::config::parse_duration;
-use wildlight_train::inference::{ExportSource, TrainedRun};
+use crate::field_source::ExportSource;
+use wildlight_train::inference::TrainedRun;
 use wildlight_train::run::{CHECKPOINT_FILE, MaskChoice, RunOptions, planned_iters, train};
 
 use crate::cli::export::{AssetArgs, run_scale_mat, with_object_only};

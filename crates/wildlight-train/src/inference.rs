@@ -152,49 +152,6 @@ pub fn write_view_maps(
     Ok(())
 }
 
-/// The trained fields as a source for `wildlight-export`: SDF, gradient
-/// (from the SDF field's own finite-difference normals) and material.
-pub struct ExportSource<'a> {
-    model: &'a Model,
-    fd_step: f64,
-}
-
-impl<'a> ExportSource<'a> {
-    /// Wraps a trained run's model.
-    pub fn new(run: &'a TrainedRun) -> Self {
-        Self {
-            model: &run.model,
-            fd_step: run.fd_step(),
-        }
-    }
-}
-
-impl wildlight_export::FieldSource for ExportSource<'_> {
-    fn sdf(&self, points: &[[f32; 3]], out: &mut [f32]) {
-        let mut ctx = FieldContext::new();
-        eval_sdf(self.model, points, out, &mut ctx);
-    }
-
-    fn material(&self, points: &[[f32; 3]], out: &mut [[f32; 9]]) {
-        out.copy_from_slice(&self.model.material_at(points));
-    }
-
-    fn gradient(&self, points: &[[f32; 3]], out: &mut [[f32; 3]]) {
-        let mut ctx = wildlight_fields::NormalContext::new();
-        self.model.sdf.forward_with_normals(
-            points,
-            wildlight_fields::FdScheme::Tetrahedral,
-            self.fd_step,
-            &mut ctx,
-        );
-        out.copy_from_slice(&ctx.gradient);
-    }
-
-    fn gradient_step(&self) -> f32 {
-        self.fd_step as f32
-    }
-}
-
 /// One entry of `views.json`.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct RenderedView {

@@ -5,7 +5,7 @@
 use anyhow::Context;
 use std::path::Path;
 use wildlight_data::View;
-use wildlight_export::ViewMaps;
+use wildlight_data::ViewMaps;
 
 /// Linear → sRGB-encoded 8-bit, clamped.
 pub fn srgb8(v: f32) -> u8 {
