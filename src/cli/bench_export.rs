@@ -16,6 +16,7 @@
 //!
 //! Thread count: the rayon pool (`RAYON_NUM_THREADS`).
 
+use crate::field_source::ExportSource;
 use anyhow::Context;
 use indicatif::ProgressBar;
 use serde::Serialize;
@@ -28,7 +29,6 @@ use wildlight_export::{
     flash_round_trip, level_set_reference, project_to_level_set, read_glb,
 };
 use wildlight_mesh::TriMesh;
-use crate::field_source::ExportSource;
 use wildlight_train::inference::TrainedRun;
 
 use crate::cli::export::{export_options, run_scale_mat};

@@ -3,6 +3,7 @@
 //! export the asset, measure everything against the ground truth, and draw
 //! a side-by-side preview (`preview.png`) of ground truth and reconstruction.
 
+use crate::field_source::ExportSource;
 use anyhow::{Context, bail};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -13,7 +14,6 @@ use wildlight_eval::{
 use wildlight_export::{AtlasOptions, ExportOptions, MarchingOptions, export_to_dir};
 use wildlight_synth::{RigOptions, SynthOptions, synthesize};
 use wildlight_train::TrainConfig;
-use crate::field_source::ExportSource;
 use wildlight_train::inference::{RenderedView, TrainedRun, render_views_to_dir};
 use wildlight_train::run::{RunOptions, planned_iters, train};
 

@@ -1,10 +1,10 @@
 //! `wildlight export`: turns a trained run into a PBR asset (SPEC §9):
 //! `model.glb`, `model.obj` + `model.mtl` + PNG maps, and `mesh_raw.ply`.
 
+use crate::field_source::ExportSource;
 use anyhow::{Context, bail};
 use std::path::PathBuf;
 use wildlight_export::{AtlasOptions, ExportOptions, MarchingOptions, export_to_dir};
-use crate::field_source::ExportSource;
 use wildlight_train::inference::TrainedRun;
 use wildlight_train::support::BackgroundSupportSearch;
 

@@ -22,13 +22,13 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
+use crate::field_source::ExportSource;
 use anyhow::{Context, bail};
 use wildlight_data::Dataset;
 use wildlight_export::{AssetTracer, ExportOptions, FlashSettings, LightingSettings, read_glb};
 use wildlight_pathtrace::EnvMap;
 use wildlight_train::TrainConfig;
 use wildlight_train::config::parse_duration;
-use crate::field_source::ExportSource;
 use wildlight_train::inference::TrainedRun;
 use wildlight_train::run::{CHECKPOINT_FILE, MaskChoice, RunOptions, planned_iters, train};
 

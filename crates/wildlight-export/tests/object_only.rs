@@ -1,6 +1,7 @@
 //! `ExportOptions::object_only` on a ball standing on a table: the table
 //! goes, the ball stays, and the result is closer to the ball than the
-//! export that keeps the table.
+//! export that keeps the table; a support plane known from elsewhere cuts
+//! what the surface holds below it when the surface has no plane.
 
 use glam::Vec3;
 use wildlight_export::{
@@ -54,6 +55,7 @@ fn the_table_is_cut_away_and_the_ball_kept() {
     let plane = object.report.support_plane.expect("the table is found");
     assert!(plane.0[1] > 0.999, "normal {:?}", plane.0);
     assert!((plane.1 - TABLE_Y).abs() < 0.01, "offset {}", plane.1);
+    assert_eq!(object.report.support_source.as_deref(), Some("surface"));
     let [support, _outside, _fragments] = object.report.removed_area.unwrap();
     // The disc of table inside the sphere: π(1 − 0.4²) ≈ 2.64.
     assert!(support > 2.3, "support area removed {support}");
@@ -94,5 +96,59 @@ fn an_object_without_a_table_is_left_whole() {
     assert_eq!(
         object.raw_mesh.triangles.len(),
         plain.raw_mesh.triangles.len()
+    );
+}
+
+/// A ball whose foot runs on below the table top as a column, with no table
+/// in the field (what a run without masks leaves when the background holds
+/// the table): the surface gives no plane, the known one cuts the column.
+#[test]
+fn a_known_support_plane_cuts_what_runs_on_below_it() {
+    let column = |p: Vec3| {
+        let radial = Vec3::new(p.x - CENTER.x, 0.0, p.z - CENTER.z).length() - 0.15;
+        radial.max(p.y - CENTER.y)
+    };
+    let sdf = move |p: Vec3| ((p - CENTER).length() - RADIUS).min(column(p));
+    let source = AnalyticSource::new(sdf, |_| [0.5; 9]);
+    let searched = export_asset(&source, &options(true)).expect("export, object only");
+    assert_eq!(searched.report.support_plane, None);
+    assert!(
+        searched
+            .raw_mesh
+            .positions
+            .iter()
+            .any(|p| p.y < TABLE_Y - 0.2)
+    );
+    let known = wildlight_mesh::SupportPlane {
+        normal: Vec3::Y,
+        offset: TABLE_Y,
+    };
+    let cut = export_asset(
+        &source,
+        &ExportOptions {
+            known_support: Some(known),
+            ..options(true)
+        },
+    )
+    .expect("export with the known plane");
+    assert_eq!(cut.report.support_plane, Some(([0.0, 1.0, 0.0], TABLE_Y)));
+    assert_eq!(cut.report.support_source.as_deref(), Some("known"));
+    for p in cut
+        .raw_mesh
+        .positions
+        .iter()
+        .chain(&cut.asset.mesh.positions)
+    {
+        assert!(
+            p.y > TABLE_Y + 0.005,
+            "vertex {p} on or below the table top"
+        );
+    }
+    // The ball and the column's stub above the table are what is left.
+    let ball_area = 4.0 * std::f64::consts::PI * (RADIUS as f64).powi(2);
+    let kept = cut.raw_mesh.total_area();
+    assert!(
+        kept > 0.9 * ball_area && kept < 1.3 * ball_area,
+        "{kept} of {ball_area}"
     );
 }
