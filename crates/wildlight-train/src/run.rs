@@ -139,11 +139,24 @@ fn sphere_coverage(c: &wildlight_data::Camera) -> f64 {
     hits as f64 / (n * n) as f64
 }
 
+/// How far the ray through the middle of camera `c`'s image passes from the
+/// sphere's centre (unit sphere radii; infinite when it points away).
+fn centre_ray_miss(c: &wildlight_data::Camera) -> f64 {
+    let ray = c.ray(0.5 * c.width as f64 - 0.5, 0.5 * c.height as f64 - 0.5);
+    let od = ray.origin.dot(ray.dir) / ray.dir.length_squared();
+    if od >= 0.0 {
+        return f64::INFINITY;
+    }
+    (ray.origin - od * ray.dir).length()
+}
+
 /// Checks a capture for training without masks: the background lives
 /// beyond the unit sphere, so every camera must be outside it (an error
 /// naming those that are not). Returns the warnings: the sphere filling
 /// most of the views (little background seen, and the object's samples
-/// may then model it inside the sphere).
+/// may then model it inside the sphere), and the sphere off the middle of
+/// most of the views (photos that do not aim at the object, or a region of
+/// interest beside it: the object may not be inside the sphere).
 pub fn check_maskless_capture(dataset: &Dataset) -> anyhow::Result<Vec<String>> {
     let inside: Vec<String> = dataset
         .views
@@ -187,6 +200,23 @@ pub fn check_maskless_capture(dataset: &Dataset) -> anyhow::Result<Vec<String>> 
             SPHERE_FILLS_VIEW * 100.0,
             coverage.len(),
             mean * 100.0
+        ));
+    }
+    let mut misses: Vec<f64> = dataset
+        .views
+        .iter()
+        .map(|v| centre_ray_miss(&v.camera))
+        .collect();
+    let off = misses.iter().filter(|d| **d > 1.0).count();
+    if 2 * off > misses.len() {
+        misses.sort_by(f64::total_cmp);
+        warnings.push(format!(
+            "without masks: the unit sphere is off the middle of the image in {off} of {} views \
+             (the ray through the middle passes {:.2} sphere radii from its centre at the \
+             median): the object should be near the middle of the photos and inside the sphere \
+             (scale_mat), or the background model will hold it",
+            misses.len(),
+            misses[misses.len() / 2]
         ));
     }
     Ok(warnings)

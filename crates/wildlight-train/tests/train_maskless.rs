@@ -96,6 +96,31 @@ fn smoothness_priors_follow_the_mask_mode() {
     }
 }
 
+/// Cameras that look past the sphere (moved sideways, not re-aimed): a
+/// warning with the numbers.
+#[test]
+fn a_sphere_off_the_middle_of_the_views_is_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut dataset = capture(dir.path(), 6, 24);
+    for v in &mut dataset.views {
+        let c = &mut v.camera;
+        let right = c.c2w.x_axis;
+        c.center += 1.5 * right;
+    }
+    let warnings = check_maskless_capture(&dataset).unwrap();
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert!(
+        warnings[0].contains("off the middle of the image in 6 of 6 views"),
+        "{}",
+        warnings[0]
+    );
+    // the rig aims within a few hundredths of the centre: 1.5 ± 0.05
+    let passes: f64 = warnings[0].split("passes ").nth(1).unwrap()[..4]
+        .parse()
+        .unwrap();
+    assert!((passes - 1.5).abs() < 0.05, "{}", warnings[0]);
+}
+
 /// The bound of [`maskless_training_fits_the_surface`]: measured 0.032
 /// (the smoothness priors off, their default without masks; 0.029 with them)
 /// (the masked run of `train_tiny.rs`: 0.021 to 0.030 in 240 steps).
