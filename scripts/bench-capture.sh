@@ -5,7 +5,8 @@
 # export's default) against GT_MESH, a mesh in the capture's normalized
 # frame, on the surface the capture's cameras see (appendix eq. 16,
 # normalized by scale_mat); and, when the capture has held-out views
-# (val/), their PSNR.
+# (val/), their PSNR over the masks (the object; the whole image without
+# masks) and over the whole image (`_whole`).
 #
 #   [SEED=S] [MASKS=use|ignore] scripts/bench-capture.sh CAPTURE GT_MESH OUT [BUDGET_MINUTES] [SNAPSHOT_MINUTES] [EXTRA.toml]
 #
@@ -45,20 +46,27 @@ for snap in "${snaps[@]}"; do
       > "$snap/render.log" 2>&1
     "$W" eval images --pred "$snap/render-val" --gt "$cap" --json > "$snap/images.json" \
       2> "$snap/images.log" || echo '{}' > "$snap/images.json"
+    "$W" eval images --pred "$snap/render-val" --gt "$cap" --whole-image --json \
+      > "$snap/images_whole.json" 2>> "$snap/images.log" || echo '{}' > "$snap/images_whole.json"
   else
     echo '{}' > "$snap/images.json"
+    echo '{}' > "$snap/images_whole.json"
   fi
   python3 - "$snap" <<'PY' | tee -a "$out/curve.jsonl"
 import json, sys
 snap = sys.argv[1]
 load = lambda name: json.load(open(f"{snap}/{name}"))
 mesh, img, info = load("mesh.json"), load("images.json"), load("snapshot.json")
+whole = load("images_whole.json")
 dist = mesh.get("distance", mesh)
 row = {"snapshot": snap.rsplit("/", 1)[-1], "seconds": round(info["seconds"]),
        "step": info["step"], "mesh_mean": dist["mean"], "mesh_median": dist["median"]}
 for k, v in img.items():
     if k.startswith("psnr"):
         row[k] = v
+for k, v in whole.items():
+    if k.startswith("psnr"):
+        row[k + "_whole"] = v
 print(json.dumps(row))
 PY
 done

@@ -197,7 +197,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let vps = viewpoints(&train_cameras, Frame::World);
     let mesh = evaluate_meshes(&pred, &gt, Some(&vps), &SurfaceDistanceOptions::default())?;
     let world_scale = train_cameras[0].world_scale();
-    let images = evaluate_images(&render_dir, &capture)?;
+    let images = evaluate_images(&render_dir, &capture, wildlight_eval::Pixels::Mask)?;
     let materials = evaluate_materials(&render_dir, &capture, Split::Val)?;
     let metrics = DemoMetrics {
         mesh_mean: mesh.distance.mean / world_scale,

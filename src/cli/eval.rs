@@ -8,7 +8,7 @@ use anyhow::{Context, bail};
 use wildlight_data::Dataset;
 use wildlight_eval::cameras::{Frame, viewpoints};
 use wildlight_eval::{
-    ImageEvaluation, MaterialEvaluation, MeshEvaluation, Split, SurfaceDistanceOptions,
+    ImageEvaluation, MaterialEvaluation, MeshEvaluation, Pixels, Split, SurfaceDistanceOptions,
     VertexTruth, evaluate_images, evaluate_materials, evaluate_meshes, evaluate_vertex_materials,
 };
 use wildlight_mesh::TriMesh;
@@ -24,7 +24,8 @@ pub struct Args {
 enum Which {
     /// Surface-to-surface distance of two meshes (SPEC §7, appendix eq. 16).
     Mesh(MeshArgs),
-    /// PSNR and SSIM of rendered views over the masks, by flash / no-flash / all.
+    /// PSNR and SSIM of rendered views over the masks (or the whole image), by flash /
+    /// no-flash / all.
     Images(ImagesArgs),
     /// Material-map errors against a synthetic capture's ground truth.
     Materials(MaterialsArgs),
@@ -82,6 +83,10 @@ struct ImagesArgs {
     /// The capture's dataset folder (photos, masks, val/).
     #[arg(long, value_name = "DATASET_DIR")]
     gt: PathBuf,
+    /// Score every pixel (the object and what the photo shows around it)
+    /// instead of the masks' pixels.
+    #[arg(long)]
+    whole_image: bool,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
@@ -230,7 +235,12 @@ fn mesh_table(r: &MeshEvaluation) -> String {
 }
 
 fn run_images(args: ImagesArgs) -> anyhow::Result<()> {
-    let result = evaluate_images(&args.pred, &args.gt)?;
+    let pixels = if args.whole_image {
+        Pixels::WholeImage
+    } else {
+        Pixels::Mask
+    };
+    let result = evaluate_images(&args.pred, &args.gt, pixels)?;
     print_report(args.json, &result, images_table)
 }
 

@@ -1,5 +1,6 @@
 //! `wildlight eval images`: PSNR and SSIM of rendered views against a
-//! capture's photos, over the masks, for flash, no-flash and all views.
+//! capture's photos, over the masks (the object) or over the whole image
+//! ([`Pixels`]), for flash, no-flash and all views.
 //!
 //! Per view the metrics of [`crate::image_metrics`] are computed with the
 //! saturation cap of the split the view belongs to (dataset or `val/`).
@@ -16,6 +17,15 @@ use std::path::Path;
 use wildlight_data::exr_io::read_exr_rgb;
 use wildlight_data::{Dataset, LoadOptions};
 
+/// Which pixels of a view are scored.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pixels {
+    /// Those of the view's mask (the object; all of them without a mask).
+    Mask,
+    /// All of them (the object and what the photo shows around it).
+    WholeImage,
+}
+
 /// Scores of one view.
 #[derive(Clone, Debug, Serialize)]
 pub struct ViewScore {
@@ -29,7 +39,8 @@ pub struct ViewScore {
     pub psnr: Option<f64>,
     /// SSIM over the mask; `None` for an empty mask.
     pub ssim: Option<f64>,
-    /// Number of mask pixels (all pixels when the view has no mask).
+    /// Number of pixels scored: the mask's, or all pixels when the view has
+    /// no mask or the whole image is scored.
     pub mask_pixels: usize,
 }
 
@@ -84,8 +95,13 @@ pub fn summarize(per_view: Vec<ViewScore>) -> ImageEvaluation {
 }
 
 /// Scores the views listed in `pred_dir/views.json` (images in
-/// `pred_dir/image/NNN.exr`) against the dataset folder `gt_dir`.
-pub fn evaluate_images(pred_dir: &Path, gt_dir: &Path) -> Result<ImageEvaluation, EvalError> {
+/// `pred_dir/image/NNN.exr`) against the dataset folder `gt_dir`, over
+/// `pixels`.
+pub fn evaluate_images(
+    pred_dir: &Path,
+    gt_dir: &Path,
+    pixels: Pixels,
+) -> Result<ImageEvaluation, EvalError> {
     let views = read_views(pred_dir)?;
     if views.is_empty() {
         return Err(EvalError::Input {
@@ -96,7 +112,7 @@ pub fn evaluate_images(pred_dir: &Path, gt_dir: &Path) -> Result<ImageEvaluation
     let dataset = Dataset::load(gt_dir, &LoadOptions::default())?;
     let per_view = views
         .par_iter()
-        .map(|view| score_view(view, pred_dir, &dataset))
+        .map(|view| score_view(view, pred_dir, &dataset, pixels))
         .collect::<Result<Vec<_>, _>>()?;
     Ok(summarize(per_view))
 }
@@ -105,6 +121,7 @@ fn score_view(
     view: &RenderedView,
     pred_dir: &Path,
     dataset: &Dataset,
+    pixels: Pixels,
 ) -> Result<ViewScore, EvalError> {
     let split = if view.is_val() {
         dataset.val.as_deref().ok_or_else(|| EvalError::Input {
@@ -130,7 +147,10 @@ fn score_view(
     let range = Range {
         cap: split.saturation,
     };
-    let mask = gt.mask.as_ref();
+    let mask = match pixels {
+        Pixels::Mask => gt.mask.as_ref(),
+        Pixels::WholeImage => None,
+    };
     let bad = |problem: String| EvalError::Input {
         path: pred_path.clone(),
         problem,

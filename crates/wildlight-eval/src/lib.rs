@@ -28,7 +28,7 @@ pub mod visibility;
 
 pub use colour_fit::ColourFit;
 pub use error::EvalError;
-pub use image_eval::{ImageEvaluation, evaluate_images};
+pub use image_eval::{ImageEvaluation, Pixels, evaluate_images};
 pub use material_eval::{
     MaterialEvaluation, NORMAL_THRESHOLDS_DEG, NormalWithin, Split, evaluate_materials,
 };

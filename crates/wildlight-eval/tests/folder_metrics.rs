@@ -7,7 +7,7 @@ use wildlight_data::camera::intrinsics_from_fov_x;
 use wildlight_data::exr_io::write_exr_rgb;
 use wildlight_data::writer::{DatasetWriter, ViewToWrite};
 use wildlight_data::{Camera, Mask, RgbImage};
-use wildlight_eval::{Split, evaluate_images, evaluate_materials};
+use wildlight_eval::{Pixels, Split, evaluate_images, evaluate_materials};
 
 const W: u32 = 8;
 const H: u32 = 8;
@@ -127,7 +127,7 @@ fn images_by_flash_group_with_mask_and_saturation() {
     )
     .unwrap();
 
-    let r = evaluate_images(&pred_dir, &gt_dir).unwrap();
+    let r = evaluate_images(&pred_dir, &gt_dir, Pixels::Mask).unwrap();
     let psnr1 = 10.0 * (1.0f64 / 0.04).log10();
     let psnr2 = 20.0;
     assert!((r.psnr_flash.unwrap() - 100.0).abs() < 1e-9, "{r:?}");
@@ -158,12 +158,30 @@ fn images_by_flash_group_with_mask_and_saturation() {
         assert!(json[key].is_f64(), "{key} missing in {json}");
     }
 
+    // Over the whole image, view 0's right half counts too: squared errors
+    // 0.16, 0.16, 0.25 there (the saturated pixel still none), so the MSE
+    // is half their mean; the other views had full masks and stay as they
+    // were.
+    let whole = evaluate_images(&pred_dir, &gt_dir, Pixels::WholeImage).unwrap();
+    let mse0: f64 = 0.5 * (0.16 + 0.16 + 0.25) / 3.0;
+    let psnr0 = 10.0 * (1.0 / mse0).log10();
+    assert!(
+        (whole.psnr_flash.unwrap() - psnr0).abs() < 1e-4,
+        "{whole:?}"
+    );
+    assert!((whole.psnr_noflash.unwrap() - r.psnr_noflash.unwrap()).abs() < 1e-9);
+    assert_eq!(whole.per_view[0].mask_pixels, (W * H) as usize);
+
     // A missing prediction names the file.
     std::fs::remove_file(pred_dir.join("image/002.exr")).unwrap();
-    let err = evaluate_images(&pred_dir, &gt_dir).unwrap_err().to_string();
+    let err = evaluate_images(&pred_dir, &gt_dir, Pixels::Mask)
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("002.exr"), "{err}");
     // No views.json: say what the folder should be.
-    let err = evaluate_images(&gt_dir, &gt_dir).unwrap_err().to_string();
+    let err = evaluate_images(&gt_dir, &gt_dir, Pixels::Mask)
+        .unwrap_err()
+        .to_string();
     assert!(
         err.contains("views.json") && err.contains("wildlight render"),
         "{err}"
