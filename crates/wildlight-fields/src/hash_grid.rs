@@ -215,6 +215,38 @@ fn locate<T: Real>(level: &LevelInfo, x: [T; 3]) -> Cell<T> {
     }
 }
 
+/// The gradient ∂w_c/∂x of each corner's weight at a located point, in the
+/// encoder's coordinates ([0,1]³): per axis the weights are [1 − s, s] with
+/// s = s(t) (smoothstep) or t (linear), t the fraction of `pos = x · N`, so
+/// ∂w/∂x picks up ±s'(t) · N on its own axis; a clamped coordinate has none.
+#[inline(always)]
+fn corner_weight_gradients<T: Real>(level: &LevelInfo, cell: &Cell<T>) -> [[T; 3]; 8] {
+    let scale = T::from_u32(level.resolution);
+    let axis = |t: T| {
+        if level.smoothstep {
+            let s = smoothstep(t);
+            ([T::ONE - s, s], T::from_f64(6.0) * t * (T::ONE - t))
+        } else {
+            ([T::ONE - t, t], T::ONE)
+        }
+    };
+    let [(wx, sx), (wy, sy), (wz, sz)] = cell.frac.map(axis);
+    let sx = sx * scale * cell.inside[0];
+    let sy = sy * scale * cell.inside[1];
+    let sz = sz * scale * cell.inside[2];
+    let sgn = |bit: usize| if bit == 1 { T::ONE } else { -T::ONE };
+    let mut out = [[T::ZERO; 3]; 8];
+    for (c, g) in out.iter_mut().enumerate() {
+        let (a, b, e) = (c & 1, (c >> 1) & 1, (c >> 2) & 1);
+        *g = [
+            sgn(a) * sx * wy[b] * wz[e],
+            wx[a] * sgn(b) * sy * wz[e],
+            wx[a] * wy[b] * sgn(e) * sz,
+        ];
+    }
+    out
+}
+
 /// The per-point work of one level inside [`walk_level`]: the forward
 /// gather ([`Gather`]) and the backward scatter ([`Scatter`]).
 trait LevelKernel<T> {
@@ -1001,7 +1033,6 @@ impl<T: Real> HashGrid<T> {
         let f = self.config.n_features;
         for (l, level) in self.levels.iter().enumerate().take(active_levels) {
             let table = &self.params[level.param_offset..level.param_offset + level.entries * f];
-            let scale = T::from_u32(level.resolution);
             let c0 = col + l * f;
             for (p, &xp) in x.iter().enumerate() {
                 let mut d = [T::ZERO; 8];
@@ -1009,33 +1040,109 @@ impl<T: Real> HashGrid<T> {
                     d[k] = d_out[p * rs + (c0 + k) * cs];
                 }
                 let cell = locate(level, xp);
-                // per axis: the weights [1 − s, s] and ∂s/∂t
-                let axis = |t: T| {
-                    if level.smoothstep {
-                        let s = smoothstep(t);
-                        ([T::ONE - s, s], T::from_f64(6.0) * t * (T::ONE - t))
-                    } else {
-                        ([T::ONE - t, t], T::ONE)
-                    }
-                };
-                let [(wx, sx), (wy, sy), (wz, sz)] = cell.frac.map(axis);
-                let sgn = |bit: usize| if bit == 1 { T::ONE } else { -T::ONE };
-                let mut gx = [T::ZERO; 3];
-                for c in 0..8 {
-                    let (a, b, cc) = (c & 1, (c >> 1) & 1, (c >> 2) & 1);
+                let grads = corner_weight_gradients(level, &cell);
+                for (c, gw) in grads.iter().enumerate() {
                     let e = cell.index[c] as usize * f;
                     let mut vd = T::ZERO;
                     for k in 0..f {
                         vd += table[e + k] * d[k];
                     }
-                    gx[0] += vd * sgn(a) * sx * wy[b] * wz[cc];
-                    gx[1] += vd * wx[a] * sgn(b) * sy * wz[cc];
-                    gx[2] += vd * wx[a] * wy[b] * sgn(cc) * sz;
-                }
-                for k in 0..3 {
-                    d_x[p][k] += gx[k] * scale * cell.inside[k];
+                    for k in 0..3 {
+                        d_x[p][k] += vd * gw[k];
+                    }
                 }
             }
         }
+    }
+
+    /// The directional derivative of the encoding: row `p` of `out`
+    /// (row-major, [`HashGrid::n_outputs`] values a row) becomes
+    /// `(∂ encoding / ∂x)(x_p) · v_p`, the encoding's rate of change along
+    /// `v_p` (encoder coordinates). Levels `≥ active_levels` give 0, as do
+    /// clamped coordinates. With `v` the three axes in turn, this is the
+    /// encoding's Jacobian, the forward-mode counterpart of
+    /// [`HashGrid::backward_input`].
+    pub fn encode_directional(
+        &self,
+        x: &[[T; 3]],
+        v: &[[T; 3]],
+        active_levels: usize,
+        out: &mut [T],
+    ) {
+        let f = self.config.n_features;
+        let n_out = self.n_outputs();
+        assert_eq!(x.len(), v.len(), "encode_directional: directions");
+        assert_eq!(
+            out.len(),
+            x.len() * n_out,
+            "encode_directional: output length"
+        );
+        out.fill(T::ZERO);
+        for (l, level) in self.levels.iter().enumerate().take(active_levels) {
+            let table = &self.params[level.param_offset..level.param_offset + level.entries * f];
+            for (p, (&xp, vp)) in x.iter().zip(v).enumerate() {
+                let cell = locate(level, xp);
+                let grads = corner_weight_gradients(level, &cell);
+                let row = &mut out[p * n_out + l * f..p * n_out + (l + 1) * f];
+                for (c, gw) in grads.iter().enumerate() {
+                    let w = gw[0] * vp[0] + gw[1] * vp[1] + gw[2] * vp[2];
+                    let e = cell.index[c] as usize * f;
+                    for (k, o) in row.iter_mut().enumerate() {
+                        *o += w * table[e + k];
+                    }
+                }
+            }
+        }
+    }
+
+    /// Backward pass of [`HashGrid::encode_directional`] with respect to
+    /// the table: accumulates `grad[entry] += (∂w_c/∂x · v_p) · d_out_p` for
+    /// each corner `c` of each point (`d_out` row-major like `out` there).
+    /// The directional derivative is linear in the table, so this is its
+    /// exact gradient; level-parallel, bit-identical for any thread count.
+    pub fn backward_params_directional(
+        &self,
+        x: &[[T; 3]],
+        v: &[[T; 3]],
+        d_out: &[T],
+        active_levels: usize,
+        grad: &mut [T],
+    ) {
+        let f = self.config.n_features;
+        let n_out = self.n_outputs();
+        assert_eq!(x.len(), v.len(), "backward_params_directional: directions");
+        assert_eq!(
+            d_out.len(),
+            x.len() * n_out,
+            "backward_params_directional: d_out"
+        );
+        assert_eq!(
+            grad.len(),
+            self.params.len(),
+            "backward_params_directional: grad"
+        );
+        let mut parts: Vec<(usize, &LevelInfo, &mut [T])> = Vec::new();
+        let mut rest = grad;
+        for (l, level) in self.levels.iter().enumerate() {
+            let (head, tail) = rest.split_at_mut(level.entries * f);
+            rest = tail;
+            if l < active_levels {
+                parts.push((l, level, head));
+            }
+        }
+        parts.into_par_iter().for_each(|(l, level, g)| {
+            for (p, (&xp, vp)) in x.iter().zip(v).enumerate() {
+                let cell = locate(level, xp);
+                let grads = corner_weight_gradients(level, &cell);
+                let d = &d_out[p * n_out + l * f..p * n_out + (l + 1) * f];
+                for (c, gw) in grads.iter().enumerate() {
+                    let w = gw[0] * vp[0] + gw[1] * vp[1] + gw[2] * vp[2];
+                    let e = cell.index[c] as usize * f;
+                    for (k, dk) in d.iter().enumerate() {
+                        g[e + k] += w * *dk;
+                    }
+                }
+            }
+        });
     }
 }

@@ -171,6 +171,128 @@ fn check_input_gradient(interpolation: Interpolation) {
     }
 }
 
+/// The encoding's directional derivative (forward mode) against central
+/// differences of the encoding along the direction, and against the
+/// transposed product of `backward_input` (⟨J v, d⟩ = ⟨v, Jᵀ d⟩); three of
+/// the four levels active, so the last gives 0.
+#[test]
+fn hash_grid_directional_derivative_matches_finite_differences() {
+    for (f, interpolation) in [1, 2, 4]
+        .into_iter()
+        .flat_map(|f| INTERPOLATIONS.map(|i| (f, i)))
+    {
+        let mut r = rng(6);
+        let grid = HashGrid::<f64>::new(&small_grid(f, interpolation), 9).unwrap();
+        let n = 25;
+        let no = grid.n_outputs();
+        let x: Vec<[f64; 3]> = (0..n)
+            .map(|_| {
+                [
+                    r.random_range(0.01..0.99),
+                    r.random_range(0.01..0.99),
+                    r.random_range(0.01..0.99),
+                ]
+            })
+            .collect();
+        let v: Vec<[f64; 3]> = (0..n)
+            .map(|_| {
+                [
+                    r.random_range(-1.0..1.0),
+                    r.random_range(-1.0..1.0),
+                    r.random_range(-1.0..1.0),
+                ]
+            })
+            .collect();
+        let active = 3;
+        let mut jv = vec![0.0; n * no];
+        grid.encode_directional(&x, &v, active, &mut jv);
+        let h = 1e-7;
+        for p in 0..n {
+            let at = |t: f64| {
+                let xp = [[
+                    x[p][0] + t * v[p][0],
+                    x[p][1] + t * v[p][1],
+                    x[p][2] + t * v[p][2],
+                ]];
+                let mut out = vec![0.0; no];
+                grid.encode(&xp, &mut out, no, 0, active);
+                out
+            };
+            let (plus, minus) = (at(h), at(-h));
+            for j in 0..no {
+                assert_close(
+                    &format!("F={f} {interpolation:?} point {p} output {j}"),
+                    jv[p * no + j],
+                    (plus[j] - minus[j]) / (2.0 * h),
+                    1e-6,
+                    1e-5,
+                );
+            }
+            for j in active * f..no {
+                assert_eq!(jv[p * no + j], 0.0, "inactive level");
+            }
+        }
+        let d = rand_vec(n * no, -1.0, 1.0, &mut r);
+        let mut jt_d = vec![[0.0; 3]; n];
+        grid.backward_input(&x, &d, no, 0, active, &mut jt_d);
+        let lhs = dot(&jv, &d);
+        let rhs: f64 = (0..n).map(|p| dot(&v[p], &jt_d[p])).sum();
+        assert_close("⟨J v, d⟩ = ⟨v, Jᵀ d⟩", lhs, rhs, 1e-10, 1e-10);
+    }
+}
+
+/// The table gradient of ⟨J(x) v, d⟩ (the directional derivative is linear
+/// in the table) against central differences over every table entry.
+#[test]
+fn hash_grid_directional_table_gradient_matches_finite_differences() {
+    for interpolation in INTERPOLATIONS {
+        let mut r = rng(7);
+        let mut grid = HashGrid::<f64>::new(&small_grid(2, interpolation), 4).unwrap();
+        let n = 30;
+        let no = grid.n_outputs();
+        let x: Vec<[f64; 3]> = (0..n)
+            .map(|_| [r.random(), r.random(), r.random()])
+            .collect();
+        let v: Vec<[f64; 3]> = (0..n)
+            .map(|_| {
+                [
+                    r.random_range(-1.0..1.0),
+                    r.random_range(-1.0..1.0),
+                    r.random_range(-1.0..1.0),
+                ]
+            })
+            .collect();
+        let d = rand_vec(n * no, -1.0, 1.0, &mut r);
+        let mut grad = vec![0.0; grid.params.len()];
+        grid.backward_params_directional(&x, &v, &d, 4, &mut grad);
+        let h = 1e-6;
+        for i in 0..grid.params.len() {
+            let objective = |grid: &HashGrid<f64>| {
+                let mut jv = vec![0.0; n * no];
+                grid.encode_directional(&x, &v, 4, &mut jv);
+                dot(&jv, &d)
+            };
+            let orig = grid.params[i];
+            grid.params[i] = orig + h;
+            let lp = objective(&grid);
+            grid.params[i] = orig - h;
+            let lm = objective(&grid);
+            grid.params[i] = orig;
+            assert_close(
+                &format!("{interpolation:?} table entry {i}"),
+                grad[i],
+                (lp - lm) / (2.0 * h),
+                1e-7,
+                1e-6,
+            );
+        }
+        assert!(
+            grad.iter().any(|g| g.abs() > 1e-2),
+            "gradient must not be all zero"
+        );
+    }
+}
+
 /// The point of smoothstep: the encoding's spatial derivative is continuous
 /// where a point crosses a cell face (x = 0.5 is a face of every level
 /// here), while the trilinear one jumps there.
