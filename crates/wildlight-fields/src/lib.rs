@@ -76,6 +76,7 @@ pub mod mlp;
 pub mod neural_field;
 pub mod real;
 pub mod sdf_field;
+pub mod sdf_gradient;
 
 pub use activation::Activation;
 pub use adam::{Adam, AdamConfig, AdamGroup, Decay, LrSchedule};
@@ -86,3 +87,4 @@ pub use mlp::{CHUNK_ROWS, Mlp, MlpChunk, MlpConfig, MlpContext, MlpScratch};
 pub use neural_field::{FieldContext, FieldGrads, NeuralField, NeuralFieldConfig};
 pub use real::all_finite;
 pub use sdf_field::{FdScheme, NormalContext, SdfField, SdfFieldConfig};
+pub use sdf_gradient::{GradientContext, second_derivative_from_output};
