@@ -99,6 +99,21 @@ pub struct PassSettings {
     pub ambient_flash_gradient: f64,
 }
 
+impl PassSettings {
+    /// The settings of a pass that renders a trained model: the normals'
+    /// step `fd_step`, no cos-annealing, strata centres, no backward.
+    pub fn rendering(fd_step: f64) -> Self {
+        PassSettings {
+            fd_step,
+            cos_anneal_ratio: 1.0,
+            jitter_seed: None,
+            for_backward: false,
+            alpha_eps: wildlight_render::neus::ALPHA_EPS,
+            ambient_flash_gradient: 1.0,
+        }
+    }
+}
+
 /// Buffers and results of a pass.
 #[derive(Default)]
 pub struct Pipeline<T = f32> {

@@ -36,14 +36,7 @@ pub fn render_view(
     );
     let n = (width * height) as usize;
     let mut maps = ViewMaps::with_capacity(width, height);
-    let settings = PassSettings {
-        fd_step,
-        cos_anneal_ratio: 1.0,
-        jitter_seed: None,
-        for_backward: false,
-        alpha_eps: wildlight_render::neus::ALPHA_EPS,
-        ambient_flash_gradient: 1.0,
-    };
+    let settings = PassSettings::rendering(fd_step);
     let (mut origins, mut dirs) = (Vec::new(), Vec::new());
     for start in (0..n).step_by(RENDER_CHUNK) {
         let end = (start + RENDER_CHUNK).min(n);

@@ -7,10 +7,10 @@
 //! ([`wildlight_mesh::TriMesh::object_only`]), and the object's walls may
 //! run on below the table top where no camera could see them. The table
 //! beyond the unit sphere is in the background field, though: along the
-//! rays that miss the object, the median depth of the background's weights
-//! lands on the table top around the object. A plane fitted to those
-//! points (RANSAC), with every camera on one side and the region's centre
-//! above it within the sphere, is the support.
+//! rays that miss the object, the depth at which the background's weights
+//! pile up lands on the table top around the object. A plane fitted to
+//! those points (RANSAC), with the cameras on one side and the region's
+//! centre above it within the sphere, is the support.
 
 use crate::inference::TrainedRun;
 use crate::pipeline::{PassSettings, RayInputs};
@@ -87,14 +87,7 @@ impl TrainedRun {
         search: &BackgroundSupportSearch,
     ) -> Option<BackgroundSupport> {
         self.model.background.as_ref()?;
-        let settings = PassSettings {
-            fd_step: self.fd_step(),
-            cos_anneal_ratio: 1.0,
-            jitter_seed: None,
-            for_backward: false,
-            alpha_eps: wildlight_render::neus::ALPHA_EPS,
-            ambient_flash_gradient: 1.0,
-        };
+        let settings = PassSettings::rendering(self.fd_step());
         let trained_settings = self.pipeline.background_settings;
         self.pipeline.background_settings.samples = search.samples.max(1);
         let step = (cameras.len() as f64 / search.max_cameras.max(1) as f64).max(1.0);
