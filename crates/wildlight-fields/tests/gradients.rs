@@ -19,6 +19,23 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
+/// (loss(p + h) − loss(p − h)) / 2h for the parameter `param` picks out of
+/// `state`, which is left as it was.
+fn central_difference<S>(
+    state: &mut S,
+    param: impl Fn(&mut S) -> &mut f64,
+    loss: impl Fn(&S) -> f64,
+    h: f64,
+) -> f64 {
+    let orig = *param(state);
+    *param(state) = orig + h;
+    let lp = loss(state);
+    *param(state) = orig - h;
+    let lm = loss(state);
+    *param(state) = orig;
+    (lp - lm) / (2.0 * h)
+}
+
 /// Asserts |a − b| ≤ atol + rtol·max(|a|, |b|).
 fn assert_close(what: &str, analytic: f64, numeric: f64, atol: f64, rtol: f64) {
     let tol = atol + rtol * analytic.abs().max(numeric.abs());
@@ -110,16 +127,11 @@ fn hash_grid_table_gradient_matches_finite_differences() {
         grid.backward_params(&x, &blocks, 25, no, 0, 4, &mut grad);
         let h = 1e-6;
         for i in (0..grid.n_params()).step_by(3) {
-            let v = grid.params[i];
-            grid.params[i] = v + h;
-            let lp = loss(&grid);
-            grid.params[i] = v - h;
-            let lm = loss(&grid);
-            grid.params[i] = v;
+            let numeric = central_difference(&mut grid, |g| &mut g.params[i], loss, h);
             assert_close(
                 &format!("F={f} {interpolation:?} table entry {i}"),
                 grad[i],
-                (lp - lm) / (2.0 * h),
+                numeric,
                 1e-8,
                 1e-6,
             );
@@ -265,23 +277,17 @@ fn hash_grid_directional_table_gradient_matches_finite_differences() {
         let d = rand_vec(n * no, -1.0, 1.0, &mut r);
         let mut grad = vec![0.0; grid.params.len()];
         grid.backward_params_directional(&x, &v, &d, 4, &mut grad);
-        let h = 1e-6;
+        let objective = |grid: &HashGrid<f64>| {
+            let mut jv = vec![0.0; n * no];
+            grid.encode_directional(&x, &v, 4, &mut jv);
+            dot(&jv, &d)
+        };
         for i in 0..grid.params.len() {
-            let objective = |grid: &HashGrid<f64>| {
-                let mut jv = vec![0.0; n * no];
-                grid.encode_directional(&x, &v, 4, &mut jv);
-                dot(&jv, &d)
-            };
-            let orig = grid.params[i];
-            grid.params[i] = orig + h;
-            let lp = objective(&grid);
-            grid.params[i] = orig - h;
-            let lm = objective(&grid);
-            grid.params[i] = orig;
+            let numeric = central_difference(&mut grid, |g| &mut g.params[i], objective, 1e-6);
             assert_close(
                 &format!("{interpolation:?} table entry {i}"),
                 grad[i],
-                (lp - lm) / (2.0 * h),
+                numeric,
                 1e-7,
                 1e-6,
             );
@@ -781,31 +787,21 @@ fn analytic_sdf_gradient_backward_matches_finite_differences() {
         field.backward_with_gradient(&ctx, &d_out, &d_grad, &mut grads);
         let h = 1e-6;
         for i in 0..field.field.mlp.params.len() {
-            let orig = field.field.mlp.params[i];
-            field.field.mlp.params[i] = orig + h;
-            let lp = loss(&field);
-            field.field.mlp.params[i] = orig - h;
-            let lm = loss(&field);
-            field.field.mlp.params[i] = orig;
+            let numeric = central_difference(&mut field, |f| &mut f.field.mlp.params[i], loss, h);
             assert_close(
                 &format!("{hidden:?} MLP parameter {i}"),
                 grads.mlp[i],
-                (lp - lm) / (2.0 * h),
+                numeric,
                 1e-6,
                 1e-5,
             );
         }
         for i in 0..field.field.grid.params.len() {
-            let orig = field.field.grid.params[i];
-            field.field.grid.params[i] = orig + h;
-            let lp = loss(&field);
-            field.field.grid.params[i] = orig - h;
-            let lm = loss(&field);
-            field.field.grid.params[i] = orig;
+            let numeric = central_difference(&mut field, |f| &mut f.field.grid.params[i], loss, h);
             assert_close(
                 &format!("{hidden:?} table entry {i}"),
                 grads.grid[i],
-                (lp - lm) / (2.0 * h),
+                numeric,
                 1e-6,
                 1e-5,
             );
