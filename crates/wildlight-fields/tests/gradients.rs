@@ -15,6 +15,13 @@ fn rand_vec(n: usize, lo: f64, hi: f64, r: &mut Pcg64Mcg) -> Vec<f64> {
     (0..n).map(|_| r.random_range(lo..hi)).collect()
 }
 
+/// `n` points with coordinates uniform in `[lo, hi)`.
+fn rand_points(n: usize, lo: f64, hi: f64, r: &mut Pcg64Mcg) -> Vec<[f64; 3]> {
+    (0..n)
+        .map(|_| [0; 3].map(|_| r.random_range(lo..hi)))
+        .collect()
+}
+
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
@@ -197,24 +204,8 @@ fn hash_grid_directional_derivative_matches_finite_differences() {
         let grid = HashGrid::<f64>::new(&small_grid(f, interpolation), 9).unwrap();
         let n = 25;
         let no = grid.n_outputs();
-        let x: Vec<[f64; 3]> = (0..n)
-            .map(|_| {
-                [
-                    r.random_range(0.01..0.99),
-                    r.random_range(0.01..0.99),
-                    r.random_range(0.01..0.99),
-                ]
-            })
-            .collect();
-        let v: Vec<[f64; 3]> = (0..n)
-            .map(|_| {
-                [
-                    r.random_range(-1.0..1.0),
-                    r.random_range(-1.0..1.0),
-                    r.random_range(-1.0..1.0),
-                ]
-            })
-            .collect();
+        let x = rand_points(n, 0.01, 0.99, &mut r);
+        let v = rand_points(n, -1.0, 1.0, &mut r);
         let active = 3;
         let mut jv = vec![0.0; n * no];
         grid.encode_directional(&x, &v, active, &mut jv);
@@ -265,15 +256,7 @@ fn hash_grid_directional_table_gradient_matches_finite_differences() {
         let x: Vec<[f64; 3]> = (0..n)
             .map(|_| [r.random(), r.random(), r.random()])
             .collect();
-        let v: Vec<[f64; 3]> = (0..n)
-            .map(|_| {
-                [
-                    r.random_range(-1.0..1.0),
-                    r.random_range(-1.0..1.0),
-                    r.random_range(-1.0..1.0),
-                ]
-            })
-            .collect();
+        let v = rand_points(n, -1.0, 1.0, &mut r);
         let d = rand_vec(n * no, -1.0, 1.0, &mut r);
         let mut grad = vec![0.0; grid.params.len()];
         grid.backward_params_directional(&x, &v, &d, 4, &mut grad);
@@ -417,15 +400,7 @@ fn neural_field_gradients_match_finite_differences() {
     let mut field = NeuralField::<f64>::new(&field_config(3, true), 21).unwrap();
     let mut r = rng(4);
     let n = 50;
-    let x: Vec<[f64; 3]> = (0..n)
-        .map(|_| {
-            [
-                r.random_range(-1.0..1.0),
-                r.random_range(-1.0..1.0),
-                r.random_range(-1.0..1.0),
-            ]
-        })
-        .collect();
+    let x = rand_points(n, -1.0, 1.0, &mut r);
     let extra = rand_vec(n * 3, -1.0, 1.0, &mut r);
     let d_out = rand_vec(n * 4, -1.0, 1.0, &mut r);
     let mut ctx = FieldContext::new();
@@ -529,15 +504,7 @@ fn fd_normals_gradients_match_finite_differences() {
         let mut sdf = SdfField::<f64>::new(&small_sdf_config(), 8).unwrap();
         let mut r = rng(5);
         let n = 20;
-        let x: Vec<[f64; 3]> = (0..n)
-            .map(|_| {
-                [
-                    r.random_range(-0.8..0.8),
-                    r.random_range(-0.8..0.8),
-                    r.random_range(-0.8..0.8),
-                ]
-            })
-            .collect();
+        let x = rand_points(n, -0.8, 0.8, &mut r);
         let a = rand_vec(n, -1.0, 1.0, &mut r);
         let b = rand_vec(n * 3, -1.0, 1.0, &mut r);
         let c: Vec<[f64; 3]> = (0..n)
@@ -607,15 +574,7 @@ fn fd_normals_approximate_the_analytic_gradient() {
     let sdf = SdfField::<f64>::new(&cfg, 9).unwrap();
     let mut r = rng(6);
     let n = 30;
-    let x: Vec<[f64; 3]> = (0..n)
-        .map(|_| {
-            [
-                r.random_range(-0.6..0.6),
-                r.random_range(-0.6..0.6),
-                r.random_range(-0.6..0.6),
-            ]
-        })
-        .collect();
+    let x = rand_points(n, -0.6, 0.6, &mut r);
     let mut ctx = FieldContext::new();
     sdf.forward(&x, &mut ctx);
     let mut d_out = vec![0.0; n * 4];
@@ -721,9 +680,7 @@ fn analytic_sdf_gradient_matches_finite_differences() {
     ] {
         let field = analytic_test_field(hidden.clone(), interpolation);
         let mut r = rng(12);
-        let x: Vec<[f64; 3]> = (0..12)
-            .map(|_| [0; 3].map(|_| r.random_range(-0.9..0.9)))
-            .collect();
+        let x = rand_points(12, -0.9, 0.9, &mut r);
         let mut ctx = GradientContext::new();
         field.forward_with_gradient(&x, &mut ctx);
         let mut plain = FieldContext::new();
@@ -768,14 +725,10 @@ fn analytic_sdf_gradient_backward_matches_finite_differences() {
         let mut field = analytic_test_field(hidden.clone(), interpolation);
         let mut r = rng(13);
         let n = 10;
-        let x: Vec<[f64; 3]> = (0..n)
-            .map(|_| [0; 3].map(|_| r.random_range(-0.9..0.9)))
-            .collect();
+        let x = rand_points(n, -0.9, 0.9, &mut r);
         let no = field.n_output();
         let d_out = rand_vec(n * no, -1.0, 1.0, &mut r);
-        let d_grad: Vec<[f64; 3]> = (0..n)
-            .map(|_| [0; 3].map(|_| r.random_range(-1.0..1.0)))
-            .collect();
+        let d_grad = rand_points(n, -1.0, 1.0, &mut r);
         let loss = |field: &SdfField<f64>| {
             let mut c = GradientContext::new();
             field.forward_with_gradient(&x, &mut c);
