@@ -72,6 +72,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             r.fwd_bwd_normals_points_per_s
         );
         println!(
+            "forward + backward + analytic gradient: {:>6.0} points/s",
+            r.fwd_bwd_analytic_points_per_s
+        );
+        println!(
             "per CPU second (all threads): forward {:.0}, forward + backward {:.0} points",
             r.fwd_points_per_cpu_s, r.fwd_bwd_points_per_cpu_s
         );

@@ -56,6 +56,9 @@ pub struct BenchReport {
     pub fwd_bwd_points_per_s: f64,
     /// Forward + backward with tetrahedral FD normals (5 evaluations per point), main points per second.
     pub fwd_bwd_normals_points_per_s: f64,
+    /// Forward + backward with the analytic gradient
+    /// ([`SdfField::forward_with_gradient_batched`]), points per second.
+    pub fwd_bwd_analytic_points_per_s: f64,
     /// Forward points per second of process CPU time (all threads together):
     /// a figure less sensitive to other processes on a shared machine.
     pub fwd_points_per_cpu_s: f64,
@@ -201,6 +204,13 @@ pub fn run(config: &BenchConfig) -> Result<BenchReport, crate::FieldError> {
         field.forward_with_normals(xn, FdScheme::Tetrahedral, 1e-3, &mut nctx);
         field.backward_with_normals(&mut nctx, &d_sdf, &d_feat, &d_grad, &mut grads);
     });
+    let mut actx = crate::sdf_gradient::BatchedGradientContext::new();
+    let d_rows: Vec<f32> = d_out[..nn * n_out].to_vec();
+    let t_analytic = time(config.reps, || {
+        grads.zero();
+        field.forward_with_gradient_batched(xn, &mut actx);
+        field.backward_with_gradient_batched(&mut actx, &d_rows, &d_grad, &mut grads);
+    });
 
     // Component timings, on the buffers the field uses: column-major chunk
     // inputs, the encoding level-major over the whole batch.
@@ -280,6 +290,7 @@ pub fn run(config: &BenchConfig) -> Result<BenchReport, crate::FieldError> {
         fwd_points_per_s: n as f64 / t_fwd.0,
         fwd_bwd_points_per_s: n as f64 / t_fwd_bwd.0,
         fwd_bwd_normals_points_per_s: nn as f64 / t_normals.0,
+        fwd_bwd_analytic_points_per_s: nn as f64 / t_analytic.0,
         fwd_points_per_cpu_s: n as f64 / t_fwd.1,
         fwd_bwd_points_per_cpu_s: n as f64 / t_fwd_bwd.1,
         encoding_fwd_s: t_enc_fwd,

@@ -87,4 +87,4 @@ pub use mlp::{CHUNK_ROWS, Mlp, MlpChunk, MlpConfig, MlpContext, MlpScratch};
 pub use neural_field::{FieldContext, FieldGrads, NeuralField, NeuralFieldConfig};
 pub use real::all_finite;
 pub use sdf_field::{FdScheme, NormalContext, SdfField, SdfFieldConfig};
-pub use sdf_gradient::{GradientContext, second_derivative_from_output};
+pub use sdf_gradient::{BatchedGradientContext, GradientContext, second_derivative_from_output};

@@ -92,6 +92,15 @@ impl<T: Real> FieldContext<T> {
     pub fn output(&self) -> &[T] {
         &self.output
     }
+    /// The encoder coordinates of the last forward pass.
+    pub(crate) fn unit(&self) -> &[[T; 3]] {
+        &self.unit
+    }
+    /// The network's chunks of the last forward pass (inputs and layer
+    /// outputs, column-major).
+    pub(crate) fn chunks(&self) -> &[MlpChunk<T>] {
+        &self.chunks
+    }
 }
 
 /// Hash encoding + MLP (see module docs).

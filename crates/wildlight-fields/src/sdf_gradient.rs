@@ -292,3 +292,325 @@ impl<T: Real> SdfField<T> {
         );
     }
 }
+
+/// The per-chunk buffers of [`SdfField::forward_with_gradient_batched`].
+#[derive(Clone, Debug, Default)]
+struct GradientChunk<T> {
+    /// g_{a_l} of each hidden layer (column-major, the chunk's `ld`).
+    g_hidden: Vec<Vec<T>>,
+    /// g_{a₀} (column-major).
+    g_input: Vec<T>,
+    /// D a₀ of the backward pass (column-major), for the table.
+    d_input: Vec<T>,
+    /// The chunk's MLP gradient partial.
+    grad: Vec<T>,
+}
+
+/// What [`SdfField::forward_with_gradient_batched`] keeps for its backward
+/// pass: the field's own forward context and the gradient's chain.
+#[derive(Clone, Debug, Default)]
+pub struct BatchedGradientContext<T> {
+    field: crate::neural_field::FieldContext<T>,
+    chunks: Vec<GradientChunk<T>>,
+    /// ∇φ of each point (normalized frame).
+    pub gradient: Vec<[T; 3]>,
+}
+
+impl<T: Real> BatchedGradientContext<T> {
+    /// An empty context.
+    pub fn new() -> Self {
+        Self::default()
+    }
+    /// `[sdf, features…]` of each point (`n × n_output`, row-major).
+    pub fn output(&self) -> &[T] {
+        self.field.output()
+    }
+}
+
+/// `out[col][r] = a[col][r] · σ'(act[col][r])` over `width` columns of
+/// `rows` rows (column-major, leading dimension `ld`).
+fn times_derivative<T: Real>(
+    act: Activation,
+    a_out: &[T],
+    values: &[T],
+    out: &mut [T],
+    width: usize,
+    rows: usize,
+    ld: usize,
+) {
+    for c in 0..width {
+        let (o, v) = (
+            &mut out[c * ld..c * ld + rows],
+            &values[c * ld..c * ld + rows],
+        );
+        o.copy_from_slice(v);
+        act.backward_in_place(&a_out[c * ld..c * ld + rows], o);
+    }
+}
+
+impl<T: Real + Send + Sync> SdfField<T> {
+    /// [`SdfField::forward_with_gradient`] over the field's batched kernels:
+    /// the field's chunked forward pass, then per chunk of rows the
+    /// network run backwards from the SDF output (`dense` kernels) and the
+    /// encoding's Jacobian transposed. Parallel over chunks.
+    pub fn forward_with_gradient_batched(&self, x: &[[T; 3]], ctx: &mut BatchedGradientContext<T>) {
+        use crate::dense::linear_forward;
+        use crate::hash_grid::BlockLayout;
+        use rayon::prelude::*;
+        let field = &self.field;
+        let cfg = field.config();
+        assert!(cfg.include_position && cfg.n_extra == 0);
+        assert_eq!(cfg.output_activation, Activation::None);
+        let act = cfg.hidden_activation;
+        field.forward(x, &[], &mut ctx.field);
+        let layers = field.mlp.layers();
+        let hidden = &layers[..layers.len() - 1];
+        let top = layers[layers.len() - 1];
+        let w = &field.mlp.params;
+        let w0 = &w[top.weight_offset..top.weight_offset + top.n_in];
+        let active = field.active_levels;
+        let b = T::from_f64(cfg.bound as f64);
+        let inv = T::ONE / (b + b);
+        let n_chunks = ctx.field.chunks().len();
+        ctx.chunks.resize_with(n_chunks, GradientChunk::default);
+        ctx.gradient.resize(x.len(), [T::ZERO; 3]);
+        let unit = ctx.field.unit();
+        let fchunks = ctx.field.chunks();
+        ctx.chunks
+            .par_iter_mut()
+            .zip(ctx.gradient.par_chunks_mut(crate::CHUNK_ROWS))
+            .enumerate()
+            .for_each(|(c, (gc, grad_rows))| {
+                let fc = &fchunks[c];
+                let (rows, ld) = (fc.rows, fc.ld);
+                let mut g = vec![T::ZERO; top.n_in * ld];
+                for (i, wi) in w0.iter().enumerate() {
+                    g[i * ld..i * ld + rows].fill(*wi);
+                }
+                gc.g_hidden.resize_with(hidden.len(), Vec::new);
+                for (l, info) in hidden.iter().enumerate().rev() {
+                    let mut gz = vec![T::ZERO; info.n_out * ld];
+                    times_derivative(act, &fc.acts[l], &g, &mut gz, info.n_out, rows, ld);
+                    let mut below = vec![T::ZERO; info.n_in * ld];
+                    let wl = &w[info.weight_offset..info.bias_offset];
+                    linear_forward(
+                        info.n_out,
+                        info.n_in,
+                        rows,
+                        ld,
+                        wl,
+                        (1, info.n_in),
+                        &[],
+                        &gz,
+                        &mut below,
+                    );
+                    gc.g_hidden[l] = std::mem::replace(&mut g, below);
+                }
+                let start = c * crate::CHUNK_ROWS;
+                let mut dx = vec![[T::ZERO; 3]; rows];
+                field.grid.backward_input_block(
+                    &unit[start..start + rows],
+                    &g,
+                    BlockLayout::column_major(ld),
+                    3,
+                    active,
+                    &mut dx,
+                );
+                for (r, out) in grad_rows.iter_mut().enumerate() {
+                    *out = [0, 1, 2].map(|k| g[k * ld + r] + dx[r][k] * inv);
+                }
+                gc.g_input = g;
+            });
+    }
+
+    /// Backward pass of [`SdfField::forward_with_gradient_batched`], as
+    /// [`SdfField::backward_with_gradient`]: accumulates into `grads`.
+    /// Deterministic: chunk partials are summed in chunk order, the table's
+    /// scatters are level-parallel.
+    pub fn backward_with_gradient_batched(
+        &self,
+        ctx: &mut BatchedGradientContext<T>,
+        d_out: &[T],
+        d_gradient: &[[T; 3]],
+        grads: &mut FieldGrads<T>,
+    ) {
+        use crate::dense::{linear_backward_params, linear_forward};
+        use crate::hash_grid::BlockLayout;
+        use rayon::prelude::*;
+        let field = &self.field;
+        let act = field.config().hidden_activation;
+        let layers = field.mlp.layers();
+        let hidden = &layers[..layers.len() - 1];
+        let top = layers[layers.len() - 1];
+        let w = &field.mlp.params;
+        let n = d_gradient.len();
+        let n_in = layers[0].n_in;
+        let ne = field.grid.n_outputs();
+        let n_out = top.n_out;
+        let active = field.active_levels;
+        let b = T::from_f64(field.config().bound as f64);
+        let inv = T::ONE / (b + b);
+        assert_eq!(d_out.len(), n * n_out, "d_out length");
+        let unit = ctx.field.unit();
+        let fchunks = ctx.field.chunks();
+        // The table's share of J_eᵀ g_e, and D g_e = J_e D_∇ / (2b).
+        let v: Vec<[T; 3]> = d_gradient.iter().map(|d| d.map(|c| c * inv)).collect();
+        let mut g_e = vec![T::ZERO; n * ne];
+        for (c, gc) in ctx.chunks.iter().enumerate() {
+            let ld = fchunks[c].ld;
+            for r in 0..fchunks[c].rows {
+                let p = c * crate::CHUNK_ROWS + r;
+                for k in 0..ne {
+                    g_e[p * ne + k] = gc.g_input[(3 + k) * ld + r];
+                }
+            }
+        }
+        field
+            .grid
+            .backward_params_directional(unit, &v, &g_e, active, &mut grads.grid);
+        let mut d_ge = vec![T::ZERO; n * ne];
+        field.grid.encode_directional(unit, &v, active, &mut d_ge);
+        let n_params = field.mlp.params.len();
+        ctx.chunks.par_iter_mut().enumerate().for_each(|(c, gc)| {
+            let fc = &fchunks[c];
+            let (rows, ld) = (fc.rows, fc.ld);
+            let start = c * crate::CHUNK_ROWS;
+            gc.grad.clear();
+            gc.grad.resize(n_params, T::ZERO);
+            let mut scratch_b = vec![T::ZERO; layers.iter().map(|l| l.n_out).max().unwrap_or(0)];
+            // D g_{a₀} = [D_∇ | D g_e], column-major.
+            let mut dg = vec![T::ZERO; n_in * ld];
+            for r in 0..rows {
+                for k in 0..3 {
+                    dg[k * ld + r] = d_gradient[start + r][k];
+                }
+                for k in 0..ne {
+                    dg[(3 + k) * ld + r] = d_ge[(start + r) * ne + k];
+                }
+            }
+            // Up the gradient's chain.
+            let mut dz2: Vec<Vec<T>> = Vec::with_capacity(hidden.len());
+            for (l, info) in hidden.iter().enumerate() {
+                let a_l = &fc.acts[l];
+                let g_l = &gc.g_hidden[l];
+                let mut gz = vec![T::ZERO; info.n_out * ld];
+                times_derivative(act, a_l, g_l, &mut gz, info.n_out, rows, ld);
+                let (gw, _) = gc.grad[info.weight_offset..].split_at_mut(info.n_out * info.n_in);
+                linear_backward_params(
+                    info.n_in,
+                    info.n_out,
+                    rows,
+                    ld,
+                    &gz,
+                    &dg,
+                    gw,
+                    &mut scratch_b[..info.n_out],
+                );
+                let mut dgz = vec![T::ZERO; info.n_out * ld];
+                let wl = &w[info.weight_offset..info.bias_offset];
+                linear_forward(
+                    info.n_in,
+                    info.n_out,
+                    rows,
+                    ld,
+                    wl,
+                    (info.n_in, 1),
+                    &[],
+                    &dg,
+                    &mut dgz,
+                );
+                let mut second = vec![T::ZERO; info.n_out * ld];
+                let mut next = vec![T::ZERO; info.n_out * ld];
+                for o in 0..info.n_out {
+                    for r in 0..rows {
+                        let k = o * ld + r;
+                        let a = a_l[k];
+                        second[k] = second_derivative_from_output(act, a) * g_l[k] * dgz[k];
+                        next[k] = act.derivative_from_output(a) * dgz[k];
+                    }
+                }
+                dz2.push(second);
+                dg = next;
+            }
+            for i in 0..top.n_in {
+                let mut s = T::ZERO;
+                for r in 0..rows {
+                    s += dg[i * ld + r];
+                }
+                gc.grad[top.weight_offset + i] += s;
+            }
+            // Down the network from D_out, the second-order terms joining.
+            let mut delta = vec![T::ZERO; n_out * ld];
+            for r in 0..rows {
+                for o in 0..n_out {
+                    delta[o * ld + r] = d_out[(start + r) * n_out + o];
+                }
+            }
+            let a_top: &[T] = match hidden.len() {
+                0 => &fc.input,
+                k => &fc.acts[k - 1],
+            };
+            {
+                let (gw, gb) = gc.grad[top.weight_offset..top.bias_offset + n_out]
+                    .split_at_mut(top.n_in * n_out);
+                linear_backward_params(top.n_in, n_out, rows, ld, &delta, a_top, gw, gb);
+            }
+            let mut da = vec![T::ZERO; top.n_in * ld];
+            let wt = &w[top.weight_offset..top.bias_offset];
+            linear_forward(
+                n_out,
+                top.n_in,
+                rows,
+                ld,
+                wt,
+                (1, top.n_in),
+                &[],
+                &delta,
+                &mut da,
+            );
+            for (l, info) in hidden.iter().enumerate().rev() {
+                let a_l = &fc.acts[l];
+                let mut dz = vec![T::ZERO; info.n_out * ld];
+                times_derivative(act, a_l, &da, &mut dz, info.n_out, rows, ld);
+                for (d, s) in dz.iter_mut().zip(&dz2[l]) {
+                    *d += *s;
+                }
+                let a_below: &[T] = if l == 0 { &fc.input } else { &fc.acts[l - 1] };
+                {
+                    let (gw, gb) = gc.grad[info.weight_offset..info.bias_offset + info.n_out]
+                        .split_at_mut(info.n_in * info.n_out);
+                    linear_backward_params(info.n_in, info.n_out, rows, ld, &dz, a_below, gw, gb);
+                }
+                let mut below = vec![T::ZERO; info.n_in * ld];
+                let wl = &w[info.weight_offset..info.bias_offset];
+                linear_forward(
+                    info.n_out,
+                    info.n_in,
+                    rows,
+                    ld,
+                    wl,
+                    (1, info.n_in),
+                    &[],
+                    &dz,
+                    &mut below,
+                );
+                da = below;
+            }
+            gc.d_input = da;
+        });
+        for gc in &ctx.chunks {
+            for (g, c) in grads.mlp.iter_mut().zip(&gc.grad) {
+                *g += *c;
+            }
+        }
+        let blocks: Vec<&[T]> = ctx.chunks.iter().map(|c| c.d_input.as_slice()).collect();
+        field.grid.backward_params_blocks(
+            unit,
+            &blocks,
+            BlockLayout::column_major(crate::CHUNK_ROWS),
+            3,
+            active,
+            &mut grads.grid,
+        );
+    }
+}
