@@ -348,13 +348,37 @@ fn times_derivative<T: Real>(
     }
 }
 
+/// `Wᵀ · values` for layer `info` (its weights in `w`, the MLP's flat
+/// parameters): `info.n_out` columns of `rows` rows in, `info.n_in` out,
+/// column-major with leading dimension `ld`.
+fn transposed_product<T: Real>(
+    info: &crate::mlp::LayerInfo,
+    w: &[T],
+    rows: usize,
+    ld: usize,
+    values: &[T],
+) -> Vec<T> {
+    let mut out = vec![T::ZERO; info.n_in * ld];
+    crate::dense::linear_forward(
+        info.n_out,
+        info.n_in,
+        rows,
+        ld,
+        &w[info.weight_offset..info.bias_offset],
+        (1, info.n_in),
+        &[],
+        values,
+        &mut out,
+    );
+    out
+}
+
 impl<T: Real + Send + Sync> SdfField<T> {
     /// [`SdfField::forward_with_gradient`] over the field's batched kernels:
     /// the field's chunked forward pass, then per chunk of rows the
     /// network run backwards from the SDF output (`dense` kernels) and the
     /// encoding's Jacobian transposed. Parallel over chunks.
     pub fn forward_with_gradient_batched(&self, x: &[[T; 3]], ctx: &mut BatchedGradientContext<T>) {
-        use crate::dense::linear_forward;
         use crate::hash_grid::BlockLayout;
         use rayon::prelude::*;
         let field = &self.field;
@@ -391,19 +415,7 @@ impl<T: Real + Send + Sync> SdfField<T> {
                 for (l, info) in hidden.iter().enumerate().rev() {
                     let mut gz = vec![T::ZERO; info.n_out * ld];
                     times_derivative(act, &fc.acts[l], &g, &mut gz, info.n_out, rows, ld);
-                    let mut below = vec![T::ZERO; info.n_in * ld];
-                    let wl = &w[info.weight_offset..info.bias_offset];
-                    linear_forward(
-                        info.n_out,
-                        info.n_in,
-                        rows,
-                        ld,
-                        wl,
-                        (1, info.n_in),
-                        &[],
-                        &gz,
-                        &mut below,
-                    );
+                    let below = transposed_product(info, w, rows, ld, &gz);
                     gc.g_hidden[l] = std::mem::replace(&mut g, below);
                 }
                 let start = c * crate::CHUNK_ROWS;
@@ -555,19 +567,7 @@ impl<T: Real + Send + Sync> SdfField<T> {
                     .split_at_mut(top.n_in * n_out);
                 linear_backward_params(top.n_in, n_out, rows, ld, &delta, a_top, gw, gb);
             }
-            let mut da = vec![T::ZERO; top.n_in * ld];
-            let wt = &w[top.weight_offset..top.bias_offset];
-            linear_forward(
-                n_out,
-                top.n_in,
-                rows,
-                ld,
-                wt,
-                (1, top.n_in),
-                &[],
-                &delta,
-                &mut da,
-            );
+            let mut da = transposed_product(&top, w, rows, ld, &delta);
             for (l, info) in hidden.iter().enumerate().rev() {
                 let a_l = &fc.acts[l];
                 let mut dz = vec![T::ZERO; info.n_out * ld];
@@ -581,20 +581,7 @@ impl<T: Real + Send + Sync> SdfField<T> {
                         .split_at_mut(info.n_in * info.n_out);
                     linear_backward_params(info.n_in, info.n_out, rows, ld, &dz, a_below, gw, gb);
                 }
-                let mut below = vec![T::ZERO; info.n_in * ld];
-                let wl = &w[info.weight_offset..info.bias_offset];
-                linear_forward(
-                    info.n_out,
-                    info.n_in,
-                    rows,
-                    ld,
-                    wl,
-                    (1, info.n_in),
-                    &[],
-                    &dz,
-                    &mut below,
-                );
-                da = below;
+                da = transposed_product(info, w, rows, ld, &dz);
             }
             gc.d_input = da;
         });
