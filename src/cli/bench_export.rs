@@ -31,7 +31,7 @@ use wildlight_export::{
 use wildlight_mesh::TriMesh;
 use wildlight_train::inference::TrainedRun;
 
-use crate::cli::export::{export_options, run_scale_mat};
+use crate::cli::export::{export_options, run_cameras, run_scale_mat};
 
 /// Options of `wildlight bench export`.
 #[derive(clap::Args, Debug)]
@@ -173,7 +173,7 @@ fn median(values: &mut [f64]) -> Option<f64> {
 /// Runs the export benchmark.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let trained = TrainedRun::load(&args.run)?;
-    let scale_mat = run_scale_mat(&trained)?;
+    let scale_mat = run_scale_mat(&run_cameras(&trained)?)?;
     let options = export_options(
         args.resolution,
         args.faces,

@@ -112,14 +112,19 @@ pub fn export_options(
     })
 }
 
-/// The normalized → world map of a trained run's capture (its first camera's scale_mat).
-pub fn run_scale_mat(trained: &TrainedRun) -> anyhow::Result<glam::Mat4> {
-    let cameras = wildlight_data::Dataset::load_cameras(&trained.info.data).with_context(|| {
+/// The cameras of a trained run's capture (read once: the scale_mat and the
+/// background's support plane both need them).
+pub fn run_cameras(trained: &TrainedRun) -> anyhow::Result<Vec<wildlight_data::Camera>> {
+    wildlight_data::Dataset::load_cameras(&trained.info.data).with_context(|| {
         format!(
-            "cannot read the cameras of the run's capture {} (needed for scale_mat)",
+            "cannot read the cameras of the run's capture {}",
             trained.info.data.display()
         )
-    })?;
+    })
+}
+
+/// The normalized → world map of a run's capture (its first camera's scale_mat).
+pub fn run_scale_mat(cameras: &[wildlight_data::Camera]) -> anyhow::Result<glam::Mat4> {
     cameras
         .first()
         .map(|c| c.scale_mat.as_mat4())
@@ -133,21 +138,15 @@ pub fn run_scale_mat(trained: &TrainedRun) -> anyhow::Result<glam::Mat4> {
 /// sphere), for the surface may hold too little of it.
 pub fn with_object_only(
     trained: &mut TrainedRun,
+    cameras: &[wildlight_data::Camera],
     options: ExportOptions,
     object_only: bool,
     keep_support: bool,
 ) -> anyhow::Result<ExportOptions> {
     let object_only = object_only || (!keep_support && trained.info.masks.maskless());
     let known_support = if object_only && trained.model.background.is_some() {
-        let cameras =
-            wildlight_data::Dataset::load_cameras(&trained.info.data).with_context(|| {
-                format!(
-                    "cannot read the cameras of the run's capture {}",
-                    trained.info.data.display()
-                )
-            })?;
         trained
-            .support_from_background(&cameras, &BackgroundSupportSearch::default())
+            .support_from_background(cameras, &BackgroundSupportSearch::default())
             .map(|s| s.plane)
     } else {
         None
@@ -164,14 +163,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // Check the options before the (slow) loading of the run.
     args.asset.check()?;
     let mut trained = TrainedRun::load(&args.run)?;
+    let cameras = run_cameras(&trained)?;
     let options = args.asset.options(
-        run_scale_mat(&trained)?,
+        run_scale_mat(&cameras)?,
         !args.normalized,
         !args.quiet && std::io::IsTerminal::is_terminal(&std::io::stderr()),
     )?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
-    let options = with_object_only(&mut trained, options, args.object_only, args.keep_support)?;
+    let options = with_object_only(
+        &mut trained,
+        &cameras,
+        options,
+        args.object_only,
+        args.keep_support,
+    )?;
     let source = ExportSource::new(&trained);
     let (files, report) = export_to_dir(&source, &options, &args.out)
         .with_context(|| format!("export of {} failed", args.run.display()))?;

@@ -32,7 +32,7 @@ use wildlight_train::config::parse_duration;
 use wildlight_train::inference::TrainedRun;
 use wildlight_train::run::{CHECKPOINT_FILE, MaskChoice, RunOptions, planned_iters, train};
 
-use crate::cli::export::{AssetArgs, run_scale_mat, with_object_only};
+use crate::cli::export::{AssetArgs, run_cameras, run_scale_mat, with_object_only};
 use crate::cli::import::ImportArgs;
 use crate::display::{exposure_for, rgb, tile, tone_map};
 
@@ -366,8 +366,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         state.record(&layout, "export", "reused", t, None)?;
     } else {
         say(&format!("3/4 export into {}", layout.export.display()));
-        let options = args.asset.options(run_scale_mat(&trained)?, true, bars)?;
-        let options = with_object_only(&mut trained, options, false, args.keep_support)?;
+        let cameras = run_cameras(&trained)?;
+        let options = args.asset.options(run_scale_mat(&cameras)?, true, bars)?;
+        let options = with_object_only(&mut trained, &cameras, options, false, args.keep_support)?;
         let report = export_whole(&trained, &options, &layout)?;
         state.record(
             &layout,
