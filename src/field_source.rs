@@ -3,26 +3,21 @@
 //! through [`wildlight_export::FieldSource`]), so that neither crate
 //! depends on the other.
 
-use wildlight_fields::{FdScheme, FieldContext, NormalContext};
+use wildlight_fields::{FieldContext, NormalContext};
 use wildlight_train::Model;
 use wildlight_train::inference::TrainedRun;
 use wildlight_train::pipeline::eval_sdf;
 
 /// The trained fields as a source for `wildlight-export`: SDF, gradient
-/// (from the SDF field's own finite-difference normals, at the run's final
-/// step) and material.
+/// (the SDF field's own normals, computed as in training) and material.
 pub struct ExportSource<'a> {
     model: &'a Model,
-    fd_step: f64,
 }
 
 impl<'a> ExportSource<'a> {
     /// Wraps a trained run's model.
     pub fn new(run: &'a TrainedRun) -> Self {
-        Self {
-            model: &run.model,
-            fd_step: run.fd_step(),
-        }
+        Self { model: &run.model }
     }
 }
 
@@ -40,11 +35,11 @@ impl wildlight_export::FieldSource for ExportSource<'_> {
         let mut ctx = NormalContext::new();
         self.model
             .sdf
-            .forward_with_normals(points, FdScheme::Tetrahedral, self.fd_step, &mut ctx);
+            .forward_with_normals(points, self.model.normal_method(), &mut ctx);
         out.copy_from_slice(&ctx.gradient);
     }
 
     fn gradient_step(&self) -> f32 {
-        self.fd_step as f32
+        self.model.fd_step() as f32
     }
 }

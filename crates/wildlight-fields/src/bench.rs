@@ -9,7 +9,7 @@ use crate::hash_grid::BlockLayout;
 use crate::hash_grid::HashGridConfig;
 use crate::mlp::{CHUNK_ROWS, Mlp, MlpChunk, MlpScratch};
 use crate::neural_field::FieldContext;
-use crate::sdf_field::{FdScheme, NormalContext, SdfField, SdfFieldConfig};
+use crate::sdf_field::{FdScheme, NormalContext, NormalMethod, SdfField, SdfFieldConfig};
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -199,18 +199,18 @@ pub fn run(config: &BenchConfig) -> Result<BenchReport, crate::FieldError> {
     let d_grad: Vec<[f32; 3]> = (0..nn)
         .map(|i| [d_out[i], d_out[i + 1], d_out[i + 2]])
         .collect();
-    let t_normals = time(config.reps, || {
-        grads.zero();
-        field.forward_with_normals(xn, FdScheme::Tetrahedral, 1e-3, &mut nctx);
-        field.backward_with_normals(&mut nctx, &d_sdf, &d_feat, &d_grad, &mut grads);
+    let mut with_normals = |method: NormalMethod| {
+        time(config.reps, || {
+            grads.zero();
+            field.forward_with_normals(xn, method, &mut nctx);
+            field.backward_with_normals(&mut nctx, &d_sdf, &d_feat, &d_grad, &mut grads);
+        })
+    };
+    let t_normals = with_normals(NormalMethod::FiniteDifference {
+        scheme: FdScheme::Tetrahedral,
+        step: 1e-3,
     });
-    let mut actx = crate::sdf_gradient::BatchedGradientContext::new();
-    let d_rows: Vec<f32> = d_out[..nn * n_out].to_vec();
-    let t_analytic = time(config.reps, || {
-        grads.zero();
-        field.forward_with_gradient_batched(xn, &mut actx);
-        field.backward_with_gradient_batched(&mut actx, &d_rows, &d_grad, &mut grads);
-    });
+    let t_analytic = with_normals(NormalMethod::Analytic);
 
     // Component timings, on the buffers the field uses: column-major chunk
     // inputs, the encoding level-major over the whole batch.

@@ -172,7 +172,7 @@ fn forward_generic<T: Real, const RT: usize, const OT: usize>(
 /// `gw[o][i] += Σ_{r<rows} delta[o][r] · input[i][r]`, `gb[o] += Σ_r delta[o][r]`
 /// (`gw` row-major `n_out × n_in`; `delta`, `input` column-major, leading dimension `ld`).
 ///
-/// Each sum runs in [`LANES`] lane-wise partial sums (fused multiply-adds
+/// Each sum runs in `LANES` lane-wise partial sums (fused multiply-adds
 /// over the full groups of rows), then the lanes in order, then the tail
 /// rows: the same order on every instruction set and for every tile shape,
 /// so the result does not depend on the CPU.

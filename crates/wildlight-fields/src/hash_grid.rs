@@ -26,6 +26,12 @@
 //! Backward: table gradients are accumulated level-parallel (each rayon task
 //! owns whole levels and walks all points in order), which needs no extra
 //! buffers, has no races, and is bit-identical for any thread count.
+//!
+//! The same walk serves the encoding's spatial derivatives, which the
+//! analytic SDF gradient needs: the corner weights are replaced by their
+//! derivatives (along one direction per point for
+//! [`HashGrid::encode_directional_blocks`] and its table gradient, along
+//! the three axes for [`HashGrid::backward_input`]).
 
 use crate::error::FieldError;
 use crate::memory::{huge_vec, prefetch};
@@ -145,106 +151,34 @@ const BLOCK: usize = 32;
 const PRIME_Y: u32 = 2_654_435_761;
 const PRIME_Z: u32 = 805_459_861;
 
-/// The eight corner table indices and the per-axis fractions of one point in one level.
-#[derive(Clone, Copy)]
-struct Cell<T> {
-    index: [u32; 8],
-    frac: [T; 3],
-    /// 1 where the coordinate was inside `[0,1]` (derivative flows), 0 where clamped.
-    inside: [T; 3],
-}
-
 /// s(t) = t²(3 − 2t), the weight of [`Interpolation::Smoothstep`].
 #[inline(always)]
 fn smoothstep<T: Real>(t: T) -> T {
     t * t * (T::from_f64(3.0) - T::from_f64(2.0) * t)
 }
 
-#[inline(always)]
-fn locate<T: Real>(level: &LevelInfo, x: [T; 3]) -> Cell<T> {
-    let res = level.resolution;
-    let scale = T::from_u32(res);
-    let mut i0 = [0u32; 3];
-    let mut frac = [T::ZERO; 3];
-    let mut inside = [T::ONE; 3];
-    for d in 0..3 {
-        let xd = x[d];
-        if !(xd >= T::ZERO && xd <= T::ONE) {
-            inside[d] = T::ZERO;
-        }
-        let xc = xd.max_cmp(T::ZERO).min_cmp(T::ONE);
-        let pos = xc * scale;
-        let fl = pos.floor().to_u32().min(res - 1);
-        i0[d] = fl;
-        frac[d] = pos - T::from_u32(fl);
-    }
-    let mut index = [0u32; 8];
-    if level.dense {
-        let r = res + 1;
-        let base = i0[0] + i0[1] * r + i0[2] * r * r;
-        let (dy, dz) = (r, r * r);
-        index = [
-            base,
-            base + 1,
-            base + dy,
-            base + dy + 1,
-            base + dz,
-            base + dz + 1,
-            base + dz + dy,
-            base + dz + dy + 1,
-        ];
-    } else {
-        let mask = (level.entries - 1) as u32;
-        let hx = [i0[0], i0[0] + 1];
-        let hy = [
-            i0[1].wrapping_mul(PRIME_Y),
-            (i0[1] + 1).wrapping_mul(PRIME_Y),
-        ];
-        let hz = [
-            i0[2].wrapping_mul(PRIME_Z),
-            (i0[2] + 1).wrapping_mul(PRIME_Z),
-        ];
-        for (c, slot) in index.iter_mut().enumerate() {
-            *slot = (hx[c & 1] ^ hy[(c >> 1) & 1] ^ hz[(c >> 2) & 1]) & mask;
-        }
-    }
-    Cell {
-        index,
-        frac,
-        inside,
-    }
+/// What the weights of a located block are: the kernels blend table
+/// entries with them, so one gather computes the encoding or its
+/// derivative, and one scatter the gradient of either.
+#[derive(Clone, Copy)]
+enum Weighting<'a, T> {
+    /// The corner weights w_c: the encoding itself.
+    Value,
+    /// ∂w_c/∂x · v_p: the encoding's derivative along each point's
+    /// direction `v_p` (encoder coordinates; one direction per point).
+    Directional(&'a [[T; 3]]),
+    /// ∂w_c/∂x_k for the three axes k, in [`BlockCells::axis_weight`].
+    Axes,
 }
 
-/// The gradient ∂w_c/∂x of each corner's weight at a located point, in the
-/// encoder's coordinates ([0,1]³): per axis the weights are [1 − s, s] with
-/// s = s(t) (smoothstep) or t (linear), t the fraction of `pos = x · N`, so
-/// ∂w/∂x picks up ±s'(t) · N on its own axis; a clamped coordinate has none.
-#[inline(always)]
-fn corner_weight_gradients<T: Real>(level: &LevelInfo, cell: &Cell<T>) -> [[T; 3]; 8] {
-    let scale = T::from_u32(level.resolution);
-    let axis = |t: T| {
-        if level.smoothstep {
-            let s = smoothstep(t);
-            ([T::ONE - s, s], T::from_f64(6.0) * t * (T::ONE - t))
-        } else {
-            ([T::ONE - t, t], T::ONE)
+impl<'a, T> Weighting<'a, T> {
+    /// The weighting of the points `range` of the batch.
+    fn range(self, range: std::ops::Range<usize>) -> Weighting<'a, T> {
+        match self {
+            Weighting::Directional(v) => Weighting::Directional(&v[range]),
+            w => w,
         }
-    };
-    let [(wx, sx), (wy, sy), (wz, sz)] = cell.frac.map(axis);
-    let sx = sx * scale * cell.inside[0];
-    let sy = sy * scale * cell.inside[1];
-    let sz = sz * scale * cell.inside[2];
-    let sgn = |bit: usize| if bit == 1 { T::ONE } else { -T::ONE };
-    let mut out = [[T::ZERO; 3]; 8];
-    for (c, g) in out.iter_mut().enumerate() {
-        let (a, b, e) = (c & 1, (c >> 1) & 1, (c >> 2) & 1);
-        *g = [
-            sgn(a) * sx * wy[b] * wz[e],
-            wx[a] * sgn(b) * sy * wz[e],
-            wx[a] * wy[b] * sgn(e) * sz,
-        ];
     }
-    out
 }
 
 /// The per-point work of one level inside [`walk_level`]: the forward
@@ -266,15 +200,17 @@ trait LevelKernel<T> {
 fn walk_level<T: Real, const F: usize>(
     level: &LevelInfo,
     x: &[[T; 3]],
+    weighting: Weighting<'_, T>,
     table: *const T,
     rows: usize,
     kernel: &mut impl LevelKernel<T>,
 ) {
     let n_blocks = x.len().div_ceil(BLOCK);
-    let block = |b: usize| &x[b * BLOCK..((b + 1) * BLOCK).min(x.len())];
+    let range = |b: usize| b * BLOCK..((b + 1) * BLOCK).min(x.len());
+    let block = |b: usize| &x[range(b)];
     let mut cells = [BlockCells::new(), BlockCells::new()];
     if n_blocks > 0 {
-        cells[0].locate(level, block(0));
+        cells[0].locate(level, block(0), weighting.range(range(0)));
         if !level.dense {
             cells[0].prefetch(table, F, block(0).len());
         }
@@ -288,7 +224,7 @@ fn walk_level<T: Real, const F: usize>(
             (&tail[0], &mut head[0])
         };
         if b + 1 < n_blocks {
-            next.locate(level, block(b + 1));
+            next.locate(level, block(b + 1), weighting.range(range(b + 1)));
             if !level.dense {
                 next.prefetch(table, F, block(b + 1).len());
             }
@@ -387,6 +323,48 @@ impl<T: Real, const F: usize> LevelKernel<T> for Scatter<'_, '_, T, F> {
     }
 }
 
+/// The input-gradient kernel: d_x[p] += Σ_c (table[index_c] · d_out_p) ∂w_c/∂x
+/// for the upstream gradient in columns `c0 .. c0 + F` of one block of rows
+/// (cells located with [`Weighting::Axes`]).
+struct InputGradient<'a, T, const F: usize> {
+    table: &'a [T],
+    d_out: &'a [T],
+    layout: BlockLayout,
+    c0: usize,
+    d_x: &'a mut [[T; 3]],
+}
+
+impl<T: Real, const F: usize> LevelKernel<T> for InputGradient<'_, T, F> {
+    #[inline(always)]
+    fn prefetch_rows(&self, first: usize, count: usize) {
+        prefetch_rows(&[self.d_out], self.layout, first, count, self.c0, F);
+    }
+
+    #[inline(always)]
+    fn point(&mut self, cur: &BlockCells<T>, i: usize, _block: usize, row: usize) {
+        let (rs, cs) = (self.layout.row_stride, self.layout.col_stride);
+        let o = row * rs + self.c0 * cs;
+        let mut d = [T::ZERO; F];
+        for k in 0..F {
+            d[k] = self.d_out[o + k * cs];
+        }
+        let dx = &mut self.d_x[row];
+        for c in 0..8 {
+            let e = cur.index[c][i] as usize * F;
+            debug_assert!(e + F <= self.table.len());
+            // SAFETY: as in `Gather::point`.
+            let v: &[T; F] = unsafe { &*(self.table.as_ptr().add(e) as *const [T; F]) };
+            let mut vd = T::ZERO;
+            for k in 0..F {
+                vd += v[k] * d[k];
+            }
+            for (k, g) in dx.iter_mut().enumerate() {
+                *g += vd * cur.axis_weight[k][c][i];
+            }
+        }
+    }
+}
+
 /// Prefetches the values of columns `c0 .. c0 + f` of rows `p .. p + count`
 /// of blocks laid out as `layout` (one hint per cache line of a column-major
 /// run; every row for other layouts).
@@ -433,10 +411,12 @@ fn prefetch_rows<T, B: AsRef<[T]>>(
 
 /// Cells of a block of up to [`BLOCK`] points in struct-of-arrays form, so that
 /// the arithmetic vectorises across points: `index[c][i]` and `weight[c][i]`
-/// are corner `c` of point `i`.
+/// are corner `c` of point `i`; `axis_weight[k][c][i]` = ∂w_c/∂x_k with
+/// [`Weighting::Axes`].
 struct BlockCells<T> {
     index: [[u32; BLOCK]; 8],
     weight: [[T; BLOCK]; 8],
+    axis_weight: [[[T; BLOCK]; 8]; 3],
 }
 
 impl<T: Real> BlockCells<T> {
@@ -444,15 +424,24 @@ impl<T: Real> BlockCells<T> {
         BlockCells {
             index: [[0; BLOCK]; 8],
             weight: [[T::ZERO; BLOCK]; 8],
+            axis_weight: [[[T::ZERO; BLOCK]; 8]; 3],
         }
     }
 
-    /// Locates `xs` (≤ BLOCK points) in `level`; lanes past `xs.len()` hold point 0 of the cube.
+    /// Locates `xs` (≤ BLOCK points) in `level` and computes their weights
+    /// as `weighting` says; lanes past `xs.len()` hold point 0 of the cube
+    /// (with direction 0).
+    ///
+    /// Per axis the weights are [1 − s, s] with s = s(t) (smoothstep) or t
+    /// (linear), t the fraction of `pos = x · N`, so their derivatives in x
+    /// are ∓s'(t) · N; a clamped coordinate has none. Corner (a, b, e) has
+    /// weight w = wx · wy · wz and ∂w/∂x = (wx' wy wz, wx wy' wz, wx wy wz').
     #[inline(always)]
-    fn locate(&mut self, level: &LevelInfo, xs: &[[T; 3]]) {
+    fn locate(&mut self, level: &LevelInfo, xs: &[[T; 3]], weighting: Weighting<'_, T>) {
         let res = level.resolution;
         let scale = T::from_u32(res);
         let top = res - 1;
+        let derivative = !matches!(weighting, Weighting::Value);
         let mut soa = [[T::ZERO; BLOCK]; 3];
         for (i, p) in xs.iter().enumerate() {
             soa[0][i] = p[0];
@@ -462,6 +451,8 @@ impl<T: Real> BlockCells<T> {
         let mut i0 = [[0u32; BLOCK]; 3];
         let mut w0 = [[T::ZERO; BLOCK]; 3];
         let mut w1 = [[T::ZERO; BLOCK]; 3];
+        // ∂s/∂x on each axis (the derivative of w1; w0's is its negative).
+        let mut d1 = [[T::ZERO; BLOCK]; 3];
         for d in 0..3 {
             for i in 0..BLOCK {
                 // `max_cmp` maps NaN to 0, so xc ∈ [0, 1].
@@ -474,6 +465,22 @@ impl<T: Real> BlockCells<T> {
                 i0[d][i] = fl;
                 w1[d][i] = fr;
             }
+            if derivative {
+                for i in 0..BLOCK {
+                    let xd = soa[d][i];
+                    let inside = if xd >= T::ZERO && xd <= T::ONE {
+                        scale
+                    } else {
+                        T::ZERO
+                    };
+                    let t = w1[d][i];
+                    d1[d][i] = if level.smoothstep {
+                        T::from_f64(6.0) * t * (T::ONE - t) * inside
+                    } else {
+                        inside
+                    };
+                }
+            }
             if level.smoothstep {
                 for w in &mut w1[d] {
                     *w = smoothstep(*w);
@@ -483,17 +490,56 @@ impl<T: Real> BlockCells<T> {
                 w0[d][i] = T::ONE - w1[d][i];
             }
         }
-        // weight of corner (a, b, e) = (wx · wy) · wz, in that order.
-        for i in 0..BLOCK {
-            let wxy = [
-                w0[0][i] * w0[1][i],
-                w1[0][i] * w0[1][i],
-                w0[0][i] * w1[1][i],
-                w1[0][i] * w1[1][i],
-            ];
-            for c in 0..8 {
-                let wz = if c >> 2 == 1 { w1[2][i] } else { w0[2][i] };
-                self.weight[c][i] = wxy[c & 3] * wz;
+        // The weight of a corner's bit `bit` on axis d, and its derivative.
+        let pick = |w0: T, w1: T, bit: usize| if bit == 1 { w1 } else { w0 };
+        let slope = |d: T, bit: usize| if bit == 1 { d } else { -d };
+        match weighting {
+            Weighting::Value => {
+                // weight of corner (a, b, e) = (wx · wy) · wz, in that order.
+                for i in 0..BLOCK {
+                    let wxy = [
+                        w0[0][i] * w0[1][i],
+                        w1[0][i] * w0[1][i],
+                        w0[0][i] * w1[1][i],
+                        w1[0][i] * w1[1][i],
+                    ];
+                    for c in 0..8 {
+                        let wz = if c >> 2 == 1 { w1[2][i] } else { w0[2][i] };
+                        self.weight[c][i] = wxy[c & 3] * wz;
+                    }
+                }
+            }
+            Weighting::Directional(v) => {
+                let mut dv = [[T::ZERO; BLOCK]; 3];
+                for (i, vi) in v.iter().enumerate().take(BLOCK) {
+                    for d in 0..3 {
+                        dv[d][i] = d1[d][i] * vi[d];
+                    }
+                }
+                for c in 0..8 {
+                    let (a, b, e) = (c & 1, (c >> 1) & 1, (c >> 2) & 1);
+                    for i in 0..BLOCK {
+                        let wx = pick(w0[0][i], w1[0][i], a);
+                        let wy = pick(w0[1][i], w1[1][i], b);
+                        let wz = pick(w0[2][i], w1[2][i], e);
+                        self.weight[c][i] = slope(dv[0][i], a) * wy * wz
+                            + wx * slope(dv[1][i], b) * wz
+                            + wx * wy * slope(dv[2][i], e);
+                    }
+                }
+            }
+            Weighting::Axes => {
+                for c in 0..8 {
+                    let (a, b, e) = (c & 1, (c >> 1) & 1, (c >> 2) & 1);
+                    for i in 0..BLOCK {
+                        let wx = pick(w0[0][i], w1[0][i], a);
+                        let wy = pick(w0[1][i], w1[1][i], b);
+                        let wz = pick(w0[2][i], w1[2][i], e);
+                        self.axis_weight[0][c][i] = slope(d1[0][i], a) * wy * wz;
+                        self.axis_weight[1][c][i] = wx * slope(d1[1][i], b) * wz;
+                        self.axis_weight[2][c][i] = wx * wy * slope(d1[2][i], e);
+                    }
+                }
             }
         }
         if level.dense {
@@ -531,6 +577,40 @@ impl<T: Real> BlockCells<T> {
         }
     }
 }
+
+/// The arguments of a forward kernel of one level: the level, the points,
+/// their weighting, the output blocks, their layout and the first column.
+type EncodeArgs<'a, 'b, 'c, T> = (
+    usize,
+    &'a [[T; 3]],
+    Weighting<'a, T>,
+    &'b mut [&'c mut [T]],
+    BlockLayout,
+    usize,
+);
+
+/// The arguments of a backward kernel of one level: the level, the points,
+/// their weighting, the upstream blocks, their layout and the first column.
+type ScatterArgs<'a, 'b, T> = (
+    usize,
+    &'a [[T; 3]],
+    Weighting<'a, T>,
+    &'a [&'b [T]],
+    BlockLayout,
+    usize,
+);
+
+/// The arguments of an input-gradient kernel of one level: the level, the
+/// points, the upstream block, its layout, the level's first column and the
+/// points' gradients.
+type InputArgs<'a, T> = (
+    usize,
+    &'a [[T; 3]],
+    &'a [T],
+    BlockLayout,
+    usize,
+    &'a mut [[T; 3]],
+);
 
 /// A multi-resolution hash encoding with its parameters.
 #[derive(Clone, Debug)]
@@ -664,6 +744,57 @@ impl<T: Real> HashGrid<T> {
         col: usize,
         active_levels: usize,
     ) {
+        self.encode_blocks_weighted(x, Weighting::Value, out_blocks, layout, col, active_levels)
+    }
+
+    /// The directional derivative of the encoding, `(∂ encoding / ∂x)(x_p) · v_p`
+    /// (the encoding's rate of change along `v_p`, encoder coordinates), into
+    /// blocks of rows as [`HashGrid::encode_blocks`] writes the encoding.
+    /// Levels `≥ active_levels` give 0, as do clamped coordinates. With `v`
+    /// the three axes in turn, this is the encoding's Jacobian, the
+    /// forward-mode counterpart of [`HashGrid::backward_input`].
+    pub fn encode_directional_blocks(
+        &self,
+        x: &[[T; 3]],
+        v: &[[T; 3]],
+        out_blocks: &mut [&mut [T]],
+        layout: BlockLayout,
+        col: usize,
+        active_levels: usize,
+    ) {
+        assert_eq!(x.len(), v.len(), "encode_directional: directions");
+        let weighting = Weighting::Directional(v);
+        self.encode_blocks_weighted(x, weighting, out_blocks, layout, col, active_levels)
+    }
+
+    /// [`HashGrid::encode_directional_blocks`] into one row-major buffer:
+    /// row `p` of `out` ([`HashGrid::n_outputs`] values a row).
+    pub fn encode_directional(
+        &self,
+        x: &[[T; 3]],
+        v: &[[T; 3]],
+        active_levels: usize,
+        out: &mut [T],
+    ) {
+        let n_out = self.n_outputs();
+        assert_eq!(
+            out.len(),
+            x.len() * n_out,
+            "encode_directional: output length"
+        );
+        let layout = BlockLayout::row_major(x.len().max(1), n_out);
+        self.encode_directional_blocks(x, v, &mut [out], layout, 0, active_levels)
+    }
+
+    fn encode_blocks_weighted(
+        &self,
+        x: &[[T; 3]],
+        weighting: Weighting<'_, T>,
+        out_blocks: &mut [&mut [T]],
+        layout: BlockLayout,
+        col: usize,
+        active_levels: usize,
+    ) {
         assert!(layout.rows > 0, "encode: empty blocks");
         let n_blocks = x.len().div_ceil(layout.rows);
         assert!(out_blocks.len() >= n_blocks, "encode: too few blocks");
@@ -675,9 +806,10 @@ impl<T: Real> HashGrid<T> {
                 .for_each(|(g, outs)| {
                     let start = g * group * layout.rows;
                     let end = (start + outs.len() * layout.rows).min(x.len());
-                    self.encode_level_blocks(
+                    self.encode_level_weighted(
                         l,
                         &x[start..end],
+                        weighting.range(start..end),
                         outs,
                         layout,
                         col,
@@ -698,6 +830,20 @@ impl<T: Real> HashGrid<T> {
         &self,
         level: usize,
         x: &[[T; 3]],
+        out_blocks: &mut [&mut [T]],
+        layout: BlockLayout,
+        col: usize,
+        active: bool,
+    ) {
+        self.encode_level_weighted(level, x, Weighting::Value, out_blocks, layout, col, active)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn encode_level_weighted(
+        &self,
+        level: usize,
+        x: &[[T; 3]],
+        weighting: Weighting<'_, T>,
         out_blocks: &mut [&mut [T]],
         layout: BlockLayout,
         col: usize,
@@ -732,62 +878,44 @@ impl<T: Real> HashGrid<T> {
             }
             return;
         }
+        let args = (level, x, weighting, out_blocks, layout, c0);
         match f {
-            1 => self.encode_level_f::<1>(level, x, out_blocks, layout, c0),
-            2 => self.encode_level_f::<2>(level, x, out_blocks, layout, c0),
-            4 => self.encode_level_f::<4>(level, x, out_blocks, layout, c0),
-            _ => self.encode_level_f::<8>(level, x, out_blocks, layout, c0),
+            1 => self.encode_level_f::<1>(args),
+            2 => self.encode_level_f::<2>(args),
+            4 => self.encode_level_f::<4>(args),
+            _ => self.encode_level_f::<8>(args),
         }
     }
 
-    fn encode_level_f<const F: usize>(
-        &self,
-        level: usize,
-        x: &[[T; 3]],
-        out_blocks: &mut [&mut [T]],
-        layout: BlockLayout,
-        c0: usize,
-    ) {
+    fn encode_level_f<const F: usize>(&self, args: EncodeArgs<'_, '_, '_, T>) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
         {
             // SAFETY: the CPU supports the enabled features (checked just above).
-            unsafe { self.encode_level_avx2::<F>(level, x, out_blocks, layout, c0) };
+            unsafe { self.encode_level_avx2::<F>(args) };
             return;
         }
-        self.encode_level_generic::<F>(level, x, out_blocks, layout, c0)
+        self.encode_level_generic::<F>(args)
     }
 
     /// The kernel compiled with AVX2 (same arithmetic, no FMA contraction, so
     /// results equal the generic build's).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    unsafe fn encode_level_avx2<const F: usize>(
-        &self,
-        level: usize,
-        x: &[[T; 3]],
-        out_blocks: &mut [&mut [T]],
-        layout: BlockLayout,
-        c0: usize,
-    ) {
-        self.encode_level_generic::<F>(level, x, out_blocks, layout, c0)
+    unsafe fn encode_level_avx2<const F: usize>(&self, args: EncodeArgs<'_, '_, '_, T>) {
+        self.encode_level_generic::<F>(args)
     }
 
     /// The forward kernel of one level (sizes checked by the caller).
     #[inline(always)]
-    fn encode_level_generic<const F: usize>(
-        &self,
-        level: usize,
-        x: &[[T; 3]],
-        out_blocks: &mut [&mut [T]],
-        layout: BlockLayout,
-        c0: usize,
-    ) {
+    fn encode_level_generic<const F: usize>(&self, args: EncodeArgs<'_, '_, '_, T>) {
+        let (level, x, weighting, out_blocks, layout, c0) = args;
         let level = &self.levels[level];
         let table = &self.params[level.param_offset..level.param_offset + level.entries * F];
         walk_level::<T, F>(
             level,
             x,
+            weighting,
             table.as_ptr(),
             layout.rows,
             &mut Gather::<T, F> {
@@ -836,6 +964,64 @@ impl<T: Real> HashGrid<T> {
         active_levels: usize,
         grad: &mut [T],
     ) {
+        let weighting = Weighting::Value;
+        self.backward_params_weighted(x, weighting, d_out_blocks, layout, col, active_levels, grad)
+    }
+
+    /// Backward pass of [`HashGrid::encode_directional_blocks`] with respect
+    /// to the table: accumulates `grad[entry] += (∂w_c/∂x · v_p) · d_out_p`
+    /// for each corner `c` of each point, the upstream gradients in blocks
+    /// as [`HashGrid::backward_params_blocks`] reads them. The directional
+    /// derivative is linear in the table, so this is its exact gradient;
+    /// level-parallel, bit-identical for any thread count.
+    #[allow(clippy::too_many_arguments)]
+    pub fn backward_params_directional_blocks(
+        &self,
+        x: &[[T; 3]],
+        v: &[[T; 3]],
+        d_out_blocks: &[&[T]],
+        layout: BlockLayout,
+        col: usize,
+        active_levels: usize,
+        grad: &mut [T],
+    ) {
+        assert_eq!(x.len(), v.len(), "backward_params_directional: directions");
+        let weighting = Weighting::Directional(v);
+        self.backward_params_weighted(x, weighting, d_out_blocks, layout, col, active_levels, grad)
+    }
+
+    /// [`HashGrid::backward_params_directional_blocks`] for upstream
+    /// gradients in one row-major buffer (as [`HashGrid::encode_directional`]
+    /// writes its output).
+    pub fn backward_params_directional(
+        &self,
+        x: &[[T; 3]],
+        v: &[[T; 3]],
+        d_out: &[T],
+        active_levels: usize,
+        grad: &mut [T],
+    ) {
+        let n_out = self.n_outputs();
+        assert_eq!(
+            d_out.len(),
+            x.len() * n_out,
+            "backward_params_directional: d_out"
+        );
+        let layout = BlockLayout::row_major(x.len().max(1), n_out);
+        self.backward_params_directional_blocks(x, v, &[d_out], layout, 0, active_levels, grad)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn backward_params_weighted(
+        &self,
+        x: &[[T; 3]],
+        weighting: Weighting<'_, T>,
+        d_out_blocks: &[&[T]],
+        layout: BlockLayout,
+        col: usize,
+        active_levels: usize,
+        grad: &mut [T],
+    ) {
         assert_eq!(
             grad.len(),
             self.params.len(),
@@ -854,11 +1040,14 @@ impl<T: Real> HashGrid<T> {
         slices
             .into_par_iter()
             .filter(|(l, _)| *l < active_levels)
-            .for_each(|(l, g)| match f {
-                1 => self.backward_level::<1>(l, x, d_out_blocks, layout, col, g),
-                2 => self.backward_level::<2>(l, x, d_out_blocks, layout, col, g),
-                4 => self.backward_level::<4>(l, x, d_out_blocks, layout, col, g),
-                _ => self.backward_level::<8>(l, x, d_out_blocks, layout, col, g),
+            .for_each(|(l, g)| {
+                let args = (l, x, weighting, d_out_blocks, layout, col);
+                match f {
+                    1 => self.backward_level::<1>(args, g),
+                    2 => self.backward_level::<2>(args, g),
+                    4 => self.backward_level::<4>(args, g),
+                    _ => self.backward_level::<8>(args, g),
+                }
             });
     }
 
@@ -878,55 +1067,37 @@ impl<T: Real> HashGrid<T> {
         }
     }
 
-    fn backward_level<const F: usize>(
-        &self,
-        l: usize,
-        x: &[[T; 3]],
-        d_out_blocks: &[&[T]],
-        layout: BlockLayout,
-        col: usize,
-        g: &mut [T],
-    ) {
+    fn backward_level<const F: usize>(&self, args: ScatterArgs<'_, '_, T>, g: &mut [T]) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
         {
             // SAFETY: the CPU supports the enabled features (checked just above).
-            unsafe { self.backward_level_avx2::<F>(l, x, d_out_blocks, layout, col, g) };
+            unsafe { self.backward_level_avx2::<F>(args, g) };
             return;
         }
-        self.backward_level_generic::<F>(l, x, d_out_blocks, layout, col, g)
+        self.backward_level_generic::<F>(args, g)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn backward_level_avx2<const F: usize>(
         &self,
-        l: usize,
-        x: &[[T; 3]],
-        d_out_blocks: &[&[T]],
-        layout: BlockLayout,
-        col: usize,
+        args: ScatterArgs<'_, '_, T>,
         g: &mut [T],
     ) {
-        self.backward_level_generic::<F>(l, x, d_out_blocks, layout, col, g)
+        self.backward_level_generic::<F>(args, g)
     }
 
     /// The table-gradient kernel of one level (sizes checked by the caller).
     #[inline(always)]
-    fn backward_level_generic<const F: usize>(
-        &self,
-        l: usize,
-        x: &[[T; 3]],
-        d_out_blocks: &[&[T]],
-        layout: BlockLayout,
-        col: usize,
-        g: &mut [T],
-    ) {
+    fn backward_level_generic<const F: usize>(&self, args: ScatterArgs<'_, '_, T>, g: &mut [T]) {
+        let (l, x, weighting, d_out_blocks, layout, col) = args;
         let level = &self.levels[l];
         let c0 = col + l * F;
         walk_level::<T, F>(
             level,
             x,
+            weighting,
             g.as_ptr(),
             layout.rows,
             &mut Scatter::<T, F> {
@@ -981,11 +1152,12 @@ impl<T: Real> HashGrid<T> {
                 if l >= active_levels {
                     continue;
                 }
+                let args = (l, xs, Weighting::Value, blocks, layout, col);
                 match f {
-                    1 => self.backward_level::<1>(l, xs, blocks, layout, col, head),
-                    2 => self.backward_level::<2>(l, xs, blocks, layout, col, head),
-                    4 => self.backward_level::<4>(l, xs, blocks, layout, col, head),
-                    _ => self.backward_level::<8>(l, xs, blocks, layout, col, head),
+                    1 => self.backward_level::<1>(args, head),
+                    2 => self.backward_level::<2>(args, head),
+                    4 => self.backward_level::<4>(args, head),
+                    _ => self.backward_level::<8>(args, head),
                 }
             }
         });
@@ -1029,120 +1201,54 @@ impl<T: Real> HashGrid<T> {
         assert_eq!(x.len(), d_x.len());
         assert!(layout.rows >= x.len(), "backward_input: one block of rows");
         self.check_blocks(x.len(), &[d_out], layout, col);
-        let (rs, cs) = (layout.row_stride, layout.col_stride);
         let f = self.config.n_features;
-        for (l, level) in self.levels.iter().enumerate().take(active_levels) {
-            let table = &self.params[level.param_offset..level.param_offset + level.entries * f];
-            let c0 = col + l * f;
-            for (p, &xp) in x.iter().enumerate() {
-                let mut d = [T::ZERO; 8];
-                for k in 0..f {
-                    d[k] = d_out[p * rs + (c0 + k) * cs];
-                }
-                let cell = locate(level, xp);
-                let grads = corner_weight_gradients(level, &cell);
-                for (c, gw) in grads.iter().enumerate() {
-                    let e = cell.index[c] as usize * f;
-                    let mut vd = T::ZERO;
-                    for k in 0..f {
-                        vd += table[e + k] * d[k];
-                    }
-                    for k in 0..3 {
-                        d_x[p][k] += vd * gw[k];
-                    }
-                }
+        for l in 0..active_levels.min(self.levels.len()) {
+            let args = (l, x, d_out, layout, col + l * f, &mut *d_x);
+            match f {
+                1 => self.input_level::<1>(args),
+                2 => self.input_level::<2>(args),
+                4 => self.input_level::<4>(args),
+                _ => self.input_level::<8>(args),
             }
         }
     }
 
-    /// The directional derivative of the encoding: row `p` of `out`
-    /// (row-major, [`HashGrid::n_outputs`] values a row) becomes
-    /// `(∂ encoding / ∂x)(x_p) · v_p`, the encoding's rate of change along
-    /// `v_p` (encoder coordinates). Levels `≥ active_levels` give 0, as do
-    /// clamped coordinates. With `v` the three axes in turn, this is the
-    /// encoding's Jacobian, the forward-mode counterpart of
-    /// [`HashGrid::backward_input`].
-    pub fn encode_directional(
-        &self,
-        x: &[[T; 3]],
-        v: &[[T; 3]],
-        active_levels: usize,
-        out: &mut [T],
-    ) {
-        let f = self.config.n_features;
-        let n_out = self.n_outputs();
-        assert_eq!(x.len(), v.len(), "encode_directional: directions");
-        assert_eq!(
-            out.len(),
-            x.len() * n_out,
-            "encode_directional: output length"
-        );
-        out.fill(T::ZERO);
-        for (l, level) in self.levels.iter().enumerate().take(active_levels) {
-            let table = &self.params[level.param_offset..level.param_offset + level.entries * f];
-            for (p, (&xp, vp)) in x.iter().zip(v).enumerate() {
-                let cell = locate(level, xp);
-                let grads = corner_weight_gradients(level, &cell);
-                let row = &mut out[p * n_out + l * f..p * n_out + (l + 1) * f];
-                for (c, gw) in grads.iter().enumerate() {
-                    let w = gw[0] * vp[0] + gw[1] * vp[1] + gw[2] * vp[2];
-                    let e = cell.index[c] as usize * f;
-                    for (k, o) in row.iter_mut().enumerate() {
-                        *o += w * table[e + k];
-                    }
-                }
-            }
+    fn input_level<const F: usize>(&self, args: InputArgs<'_, T>) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the CPU supports the enabled features (checked just above).
+            unsafe { self.input_level_avx2::<F>(args) };
+            return;
         }
+        self.input_level_generic::<F>(args)
     }
 
-    /// Backward pass of [`HashGrid::encode_directional`] with respect to
-    /// the table: accumulates `grad[entry] += (∂w_c/∂x · v_p) · d_out_p` for
-    /// each corner `c` of each point (`d_out` row-major like `out` there).
-    /// The directional derivative is linear in the table, so this is its
-    /// exact gradient; level-parallel, bit-identical for any thread count.
-    pub fn backward_params_directional(
-        &self,
-        x: &[[T; 3]],
-        v: &[[T; 3]],
-        d_out: &[T],
-        active_levels: usize,
-        grad: &mut [T],
-    ) {
-        let f = self.config.n_features;
-        let n_out = self.n_outputs();
-        assert_eq!(x.len(), v.len(), "backward_params_directional: directions");
-        assert_eq!(
-            d_out.len(),
-            x.len() * n_out,
-            "backward_params_directional: d_out"
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn input_level_avx2<const F: usize>(&self, args: InputArgs<'_, T>) {
+        self.input_level_generic::<F>(args)
+    }
+
+    /// The input-gradient kernel of one level (sizes checked by the caller).
+    #[inline(always)]
+    fn input_level_generic<const F: usize>(&self, args: InputArgs<'_, T>) {
+        let (l, x, d_out, layout, c0, d_x) = args;
+        let level = &self.levels[l];
+        let table = &self.params[level.param_offset..level.param_offset + level.entries * F];
+        walk_level::<T, F>(
+            level,
+            x,
+            Weighting::Axes,
+            table.as_ptr(),
+            layout.rows,
+            &mut InputGradient::<T, F> {
+                table,
+                d_out,
+                layout,
+                c0,
+                d_x,
+            },
         );
-        assert_eq!(
-            grad.len(),
-            self.params.len(),
-            "backward_params_directional: grad"
-        );
-        let mut parts: Vec<(usize, &LevelInfo, &mut [T])> = Vec::new();
-        let mut rest = grad;
-        for (l, level) in self.levels.iter().enumerate() {
-            let (head, tail) = rest.split_at_mut(level.entries * f);
-            rest = tail;
-            if l < active_levels {
-                parts.push((l, level, head));
-            }
-        }
-        parts.into_par_iter().for_each(|(l, level, g)| {
-            for (p, (&xp, vp)) in x.iter().zip(v).enumerate() {
-                let cell = locate(level, xp);
-                let grads = corner_weight_gradients(level, &cell);
-                let d = &d_out[p * n_out + l * f..p * n_out + (l + 1) * f];
-                for (c, gw) in grads.iter().enumerate() {
-                    let w = gw[0] * vp[0] + gw[1] * vp[1] + gw[2] * vp[2];
-                    let e = cell.index[c] as usize * f;
-                    for (k, dk) in d.iter().enumerate() {
-                        g[e + k] += w * *dk;
-                    }
-                }
-            }
-        });
     }
 }

@@ -38,7 +38,8 @@
 //! let mut grads = sdf.new_grads();
 //! let x = vec![[0.1f32, 0.2, 0.3], [0.5, -0.2, 0.1]];
 //! // sdf, features and the finite-difference gradient of every sample
-//! sdf.forward_with_normals(&x, FdScheme::Tetrahedral, sdf.field.cell_size(3), &mut ctx);
+//! let method = NormalMethod::FiniteDifference { scheme: FdScheme::Tetrahedral, step: sdf.field.cell_size(3) };
+//! sdf.forward_with_normals(&x, method, &mut ctx);
 //! // upstream gradients from the renderer / losses (here: eikonal only)
 //! let d_sdf = vec![0.0; x.len()];
 //! let d_features = vec![0.0; x.len() * cfg.n_features];
@@ -86,5 +87,5 @@ pub use hash_grid::{HashGrid, HashGridConfig, Interpolation};
 pub use mlp::{CHUNK_ROWS, Mlp, MlpChunk, MlpConfig, MlpContext, MlpScratch};
 pub use neural_field::{FieldContext, FieldGrads, NeuralField, NeuralFieldConfig};
 pub use real::all_finite;
-pub use sdf_field::{FdScheme, NormalContext, SdfField, SdfFieldConfig};
+pub use sdf_field::{FdScheme, NormalContext, NormalMethod, SdfField, SdfFieldConfig};
 pub use sdf_gradient::{BatchedGradientContext, GradientContext, second_derivative_from_output};

@@ -24,6 +24,7 @@ use crate::activation::Activation;
 use crate::error::FieldError;
 use crate::hash_grid::HashGridConfig;
 use crate::neural_field::{FieldContext, FieldGrads, NeuralField, NeuralFieldConfig};
+use crate::sdf_gradient::BatchedGradientContext;
 use rand::SeedableRng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -96,14 +97,29 @@ impl FdScheme {
     }
 }
 
+/// How [`SdfField::forward_with_normals`] computes the gradient ∇φ.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum NormalMethod {
+    /// Finite differences with `scheme` and step `step` (normalized units).
+    FiniteDifference {
+        /// The offsets.
+        scheme: FdScheme,
+        /// Their length.
+        step: f64,
+    },
+    /// The analytic gradient ([`crate::sdf_gradient`]): the field's forward
+    /// pass and one reverse sweep instead of the offsets' evaluations.
+    Analytic,
+}
+
 /// Buffers of a pass with normals (reused across calls).
 #[derive(Clone, Debug, Default)]
 pub struct NormalContext<T> {
     n: usize,
-    scheme: Option<FdScheme>,
-    step: f64,
+    method: Option<NormalMethod>,
     points: Vec<[T; 3]>,
     field: FieldContext<T>,
+    analytic: BatchedGradientContext<T>,
     d_out: Vec<T>,
     /// SDF at each point.
     pub sdf: Vec<T>,
@@ -221,22 +237,35 @@ impl<T: Real> SdfField<T> {
         self.field.backward(ctx, d_out, grads, None, d_x);
     }
 
-    /// Forward with finite-difference normals: fills `ctx.sdf`, `ctx.features`
-    /// and `ctx.gradient` for every point, using step `step` (normalized
-    /// units; may shrink during training).
+    /// Forward with normals: fills `ctx.sdf`, `ctx.features` and
+    /// `ctx.gradient` (∇φ, not normalised) for every point, by `method`.
     pub fn forward_with_normals(
         &self,
         x: &[[T; 3]],
-        scheme: FdScheme,
-        step: f64,
+        method: NormalMethod,
         ctx: &mut NormalContext<T>,
     ) {
         let n = x.len();
+        ctx.n = n;
+        ctx.method = Some(method);
+        let (scheme, step) = match method {
+            NormalMethod::FiniteDifference { scheme, step } => (scheme, step),
+            NormalMethod::Analytic => {
+                self.forward_with_gradient_batched(x, &mut ctx.analytic);
+                let (n_out, nf) = (self.n_output(), self.config.n_features);
+                let out = ctx.analytic.output();
+                ctx.sdf.clear();
+                ctx.sdf.extend(out.chunks_exact(n_out).map(|r| r[0]));
+                ctx.features.clear();
+                ctx.features
+                    .extend(out.chunks_exact(n_out).flat_map(|r| &r[1..1 + nf]));
+                ctx.gradient.clear();
+                ctx.gradient.extend_from_slice(&ctx.analytic.gradient);
+                return;
+            }
+        };
         let stencil = scheme.stencil();
         let per = 1 + stencil.len();
-        ctx.n = n;
-        ctx.scheme = Some(scheme);
-        ctx.step = step;
         ctx.points.resize(n * per, [T::ZERO; 3]);
         let offs: Vec<[T; 3]> = stencil
             .iter()
@@ -315,13 +344,30 @@ impl<T: Real> SdfField<T> {
             n,
             "backward_with_normals: d_gradient length"
         );
-        let scheme = ctx
-            .scheme
+        let method = ctx
+            .method
             .expect("backward_with_normals before forward_with_normals");
+        let n_out = self.n_output();
+        let (scheme, step) = match method {
+            NormalMethod::FiniteDifference { scheme, step } => (scheme, step),
+            NormalMethod::Analytic => {
+                ctx.d_out.clear();
+                for p in 0..n {
+                    ctx.d_out.push(d_sdf[p]);
+                    ctx.d_out
+                        .extend_from_slice(&d_features[p * nf..(p + 1) * nf]);
+                }
+                self.backward_with_gradient_batched(
+                    &mut ctx.analytic,
+                    &ctx.d_out,
+                    d_gradient,
+                    grads,
+                );
+                return;
+            }
+        };
         let stencil = scheme.stencil();
         let per = 1 + stencil.len();
-        let n_out = self.n_output();
-        let step = ctx.step;
         let coef: Vec<[T; 3]> = stencil
             .iter()
             .map(|(k, c)| {

@@ -24,8 +24,13 @@
 //!
 //! One forward, one reverse sweep for the gradient and two sweeps back
 //! replace the five forward and backward evaluations of the tetrahedral
-//! scheme; this module is the oracle for the batched kernels that will
-//! use it in training.
+//! scheme. [`SdfField::forward_with_gradient`] and its backward pass work
+//! point by point, as the oracle of the batched kernels
+//! ([`SdfField::forward_with_gradient_batched`]) that passes with
+//! [`crate::NormalMethod::Analytic`] run: chunks of rows through the
+//! `dense` kernels, the table's derivatives through the hash grid's blocked
+//! level walk ([`crate::HashGrid::encode_directional_blocks`],
+//! [`crate::HashGrid::backward_params_directional_blocks`]).
 
 use crate::activation::Activation;
 use crate::neural_field::FieldGrads;
@@ -293,15 +298,39 @@ impl<T: Real> SdfField<T> {
     }
 }
 
-/// The per-chunk buffers of [`SdfField::forward_with_gradient_batched`].
+/// σ''(z) of `act` from its output `a` and its slope `s = σ'(z)` (both
+/// known in the passes below, so no activation is evaluated again).
+#[inline(always)]
+fn curvature<T: Real>(act: Activation, a: T, s: T) -> T {
+    match act {
+        Activation::None | Activation::Relu => T::ZERO,
+        // σ' = s, σ'' = β s (1 − s)
+        Activation::Softplus { beta } => T::from_f64(beta as f64) * s * (T::ONE - s),
+        // σ' = a (1 − a) = s, σ'' = s (1 − 2a)
+        Activation::Sigmoid => s * (T::ONE - a - a),
+    }
+}
+
+/// The per-chunk buffers of [`SdfField::forward_with_gradient_batched`],
+/// column-major with leading dimension [`crate::CHUNK_ROWS`], kept across calls.
 #[derive(Clone, Debug, Default)]
 struct GradientChunk<T> {
-    /// g_{a_l} of each hidden layer (column-major, the chunk's `ld`).
+    /// σ'(z_l) of each hidden layer.
+    slope: Vec<Vec<T>>,
+    /// g_{a_l} = ∂φ/∂a_l of each hidden layer.
     g_hidden: Vec<Vec<T>>,
-    /// g_{a₀} (column-major).
+    /// g_{a₀}.
     g_input: Vec<T>,
-    /// D a₀ of the backward pass (column-major), for the table.
+    /// D g_{a₀} = [D_∇ | D g_e] of the backward pass.
+    d_g_input: Vec<T>,
+    /// The second-order terms D z_l of each hidden layer.
+    second: Vec<Vec<T>>,
+    /// D a₀ of the ordinary backward pass, for the table.
     d_input: Vec<T>,
+    /// Scratch of the widest layer: products and the gradient's chain.
+    scratch: [Vec<T>; 3],
+    /// J_eᵀ g_e of each row.
+    from_grid: Vec<[T; 3]>,
     /// The chunk's MLP gradient partial.
     grad: Vec<T>,
 }
@@ -312,6 +341,8 @@ struct GradientChunk<T> {
 pub struct BatchedGradientContext<T> {
     field: crate::neural_field::FieldContext<T>,
     chunks: Vec<GradientChunk<T>>,
+    /// D_∇ / (2b) of each point (the backward pass's table directions).
+    directions: Vec<[T; 3]>,
     /// ∇φ of each point (normalized frame).
     pub gradient: Vec<[T; 3]>,
 }
@@ -327,28 +358,7 @@ impl<T: Real> BatchedGradientContext<T> {
     }
 }
 
-/// `out[col][r] = a[col][r] · σ'(act[col][r])` over `width` columns of
-/// `rows` rows (column-major, leading dimension `ld`).
-fn times_derivative<T: Real>(
-    act: Activation,
-    a_out: &[T],
-    values: &[T],
-    out: &mut [T],
-    width: usize,
-    rows: usize,
-    ld: usize,
-) {
-    for c in 0..width {
-        let (o, v) = (
-            &mut out[c * ld..c * ld + rows],
-            &values[c * ld..c * ld + rows],
-        );
-        o.copy_from_slice(v);
-        act.backward_in_place(&a_out[c * ld..c * ld + rows], o);
-    }
-}
-
-/// `Wᵀ · values` for layer `info` (its weights in `w`, the MLP's flat
+/// `out = Wᵀ · values` for layer `info` (its weights in `w`, the MLP's flat
 /// parameters): `info.n_out` columns of `rows` rows in, `info.n_in` out,
 /// column-major with leading dimension `ld`.
 fn transposed_product<T: Real>(
@@ -357,8 +367,8 @@ fn transposed_product<T: Real>(
     rows: usize,
     ld: usize,
     values: &[T],
-) -> Vec<T> {
-    let mut out = vec![T::ZERO; info.n_in * ld];
+    out: &mut [T],
+) {
     crate::dense::linear_forward(
         info.n_out,
         info.n_in,
@@ -368,9 +378,14 @@ fn transposed_product<T: Real>(
         (1, info.n_in),
         &[],
         values,
-        &mut out,
+        &mut out[..info.n_in * ld],
     );
-    out
+}
+
+/// Sizes `buf` to `len` values (contents unspecified: every user overwrites).
+fn sized<T: Real>(buf: &mut Vec<T>, len: usize) -> &mut [T] {
+    buf.resize(len, T::ZERO);
+    &mut buf[..len]
 }
 
 impl<T: Real + Send + Sync> SdfField<T> {
@@ -392,9 +407,16 @@ impl<T: Real + Send + Sync> SdfField<T> {
         let top = layers[layers.len() - 1];
         let w = &field.mlp.params;
         let w0 = &w[top.weight_offset..top.weight_offset + top.n_in];
+        let n_in = layers[0].n_in;
+        let widest = layers
+            .iter()
+            .map(|l| l.n_out.max(l.n_in))
+            .max()
+            .unwrap_or(0);
         let active = field.active_levels;
         let b = T::from_f64(cfg.bound as f64);
         let inv = T::ONE / (b + b);
+        let ld = crate::CHUNK_ROWS;
         let n_chunks = ctx.field.chunks().len();
         ctx.chunks.resize_with(n_chunks, GradientChunk::default);
         ctx.gradient.resize(x.len(), [T::ZERO; 3]);
@@ -402,36 +424,63 @@ impl<T: Real + Send + Sync> SdfField<T> {
         let fchunks = ctx.field.chunks();
         ctx.chunks
             .par_iter_mut()
-            .zip(ctx.gradient.par_chunks_mut(crate::CHUNK_ROWS))
+            .zip(ctx.gradient.par_chunks_mut(ld))
             .enumerate()
             .for_each(|(c, (gc, grad_rows))| {
                 let fc = &fchunks[c];
-                let (rows, ld) = (fc.rows, fc.ld);
-                let mut g = vec![T::ZERO; top.n_in * ld];
-                for (i, wi) in w0.iter().enumerate() {
-                    g[i * ld..i * ld + rows].fill(*wi);
-                }
+                let rows = fc.rows;
+                debug_assert_eq!(fc.ld, ld);
+                gc.slope.resize_with(hidden.len(), Vec::new);
                 gc.g_hidden.resize_with(hidden.len(), Vec::new);
-                for (l, info) in hidden.iter().enumerate().rev() {
-                    let mut gz = vec![T::ZERO; info.n_out * ld];
-                    times_derivative(act, &fc.acts[l], &g, &mut gz, info.n_out, rows, ld);
-                    let below = transposed_product(info, w, rows, ld, &gz);
-                    gc.g_hidden[l] = std::mem::replace(&mut g, below);
+                for (l, info) in hidden.iter().enumerate() {
+                    let s = sized(&mut gc.slope[l], info.n_out * ld);
+                    for col in 0..info.n_out {
+                        let (sc, a) = (&mut s[col * ld..col * ld + rows], &fc.acts[l]);
+                        sc.fill(T::ONE);
+                        act.backward_in_place(&a[col * ld..col * ld + rows], sc);
+                    }
+                    sized(&mut gc.g_hidden[l], info.n_out * ld);
                 }
-                let start = c * crate::CHUNK_ROWS;
-                let mut dx = vec![[T::ZERO; 3]; rows];
+                let g_input = sized(&mut gc.g_input, n_in * ld);
+                // g_{a_L} = W_{L+1}[0, :]ᵀ, then down: g_{a_{l−1}} = W_lᵀ (σ'(z_l) ⊙ g_{a_l}).
+                let top_g: &mut [T] = match hidden.len() {
+                    0 => g_input,
+                    k => &mut gc.g_hidden[k - 1],
+                };
+                for (i, wi) in w0.iter().enumerate() {
+                    top_g[i * ld..i * ld + rows].fill(*wi);
+                }
+                let gz = sized(&mut gc.scratch[0], widest * ld);
+                for (l, info) in hidden.iter().enumerate().rev() {
+                    let (g, s) = (&gc.g_hidden[l], &gc.slope[l]);
+                    for col in 0..info.n_out {
+                        let r = col * ld..col * ld + rows;
+                        for ((z, gv), sv) in gz[r.clone()].iter_mut().zip(&g[r.clone()]).zip(&s[r])
+                        {
+                            *z = *gv * *sv;
+                        }
+                    }
+                    let below: &mut [T] = if l == 0 {
+                        &mut gc.g_input
+                    } else {
+                        &mut gc.g_hidden[l - 1]
+                    };
+                    transposed_product(info, w, rows, ld, gz, below);
+                }
+                let start = c * ld;
+                gc.from_grid.clear();
+                gc.from_grid.resize(rows, [T::ZERO; 3]);
                 field.grid.backward_input_block(
                     &unit[start..start + rows],
-                    &g,
+                    &gc.g_input,
                     BlockLayout::column_major(ld),
                     3,
                     active,
-                    &mut dx,
+                    &mut gc.from_grid,
                 );
                 for (r, out) in grad_rows.iter_mut().enumerate() {
-                    *out = [0, 1, 2].map(|k| g[k * ld + r] + dx[r][k] * inv);
+                    *out = [0, 1, 2].map(|k| gc.g_input[k * ld + r] + gc.from_grid[r][k] * inv);
                 }
-                gc.g_input = g;
             });
     }
 
@@ -457,69 +506,93 @@ impl<T: Real + Send + Sync> SdfField<T> {
         let w = &field.mlp.params;
         let n = d_gradient.len();
         let n_in = layers[0].n_in;
-        let ne = field.grid.n_outputs();
         let n_out = top.n_out;
+        let widest = layers
+            .iter()
+            .map(|l| l.n_out.max(l.n_in))
+            .max()
+            .unwrap_or(0);
         let active = field.active_levels;
         let b = T::from_f64(field.config().bound as f64);
         let inv = T::ONE / (b + b);
+        let ld = crate::CHUNK_ROWS;
+        let layout = BlockLayout::column_major(ld);
         assert_eq!(d_out.len(), n * n_out, "d_out length");
+        assert_eq!(n, ctx.gradient.len(), "d_gradient length");
         let unit = ctx.field.unit();
         let fchunks = ctx.field.chunks();
-        // The table's share of J_eᵀ g_e, and D g_e = J_e D_∇ / (2b).
-        let v: Vec<[T; 3]> = d_gradient.iter().map(|d| d.map(|c| c * inv)).collect();
-        let mut g_e = vec![T::ZERO; n * ne];
-        for (c, gc) in ctx.chunks.iter().enumerate() {
-            let ld = fchunks[c].ld;
-            for r in 0..fchunks[c].rows {
-                let p = c * crate::CHUNK_ROWS + r;
-                for k in 0..ne {
-                    g_e[p * ne + k] = gc.g_input[(3 + k) * ld + r];
+        // The table's share of J_eᵀ g_e: its derivative along D_∇ / (2b).
+        ctx.directions.clear();
+        ctx.directions
+            .extend(d_gradient.iter().map(|d| d.map(|c| c * inv)));
+        let v = &ctx.directions;
+        {
+            let blocks: Vec<&[T]> = ctx.chunks.iter().map(|c| c.g_input.as_slice()).collect();
+            field.grid.backward_params_directional_blocks(
+                unit,
+                v,
+                &blocks,
+                layout,
+                3,
+                active,
+                &mut grads.grid,
+            );
+        }
+        // D g_{a₀} = [D_∇ | D g_e], D g_e = J_e D_∇ / (2b).
+        ctx.chunks.par_iter_mut().enumerate().for_each(|(c, gc)| {
+            let rows = fchunks[c].rows;
+            let dg = sized(&mut gc.d_g_input, n_in * ld);
+            for r in 0..rows {
+                for k in 0..3 {
+                    dg[k * ld + r] = d_gradient[c * ld + r][k];
                 }
             }
+        });
+        {
+            let mut blocks: Vec<&mut [T]> = ctx
+                .chunks
+                .iter_mut()
+                .map(|c| c.d_g_input.as_mut_slice())
+                .collect();
+            field
+                .grid
+                .encode_directional_blocks(unit, v, &mut blocks, layout, 3, active);
         }
-        field
-            .grid
-            .backward_params_directional(unit, &v, &g_e, active, &mut grads.grid);
-        let mut d_ge = vec![T::ZERO; n * ne];
-        field.grid.encode_directional(unit, &v, active, &mut d_ge);
         let n_params = field.mlp.params.len();
         ctx.chunks.par_iter_mut().enumerate().for_each(|(c, gc)| {
             let fc = &fchunks[c];
-            let (rows, ld) = (fc.rows, fc.ld);
-            let start = c * crate::CHUNK_ROWS;
+            let rows = fc.rows;
+            let start = c * ld;
             gc.grad.clear();
             gc.grad.resize(n_params, T::ZERO);
-            let mut scratch_b = vec![T::ZERO; layers.iter().map(|l| l.n_out).max().unwrap_or(0)];
-            // D g_{a₀} = [D_∇ | D g_e], column-major.
-            let mut dg = vec![T::ZERO; n_in * ld];
-            for r in 0..rows {
-                for k in 0..3 {
-                    dg[k * ld + r] = d_gradient[start + r][k];
-                }
-                for k in 0..ne {
-                    dg[(3 + k) * ld + r] = d_ge[(start + r) * ne + k];
-                }
-            }
+            let mut bias_scratch = vec![T::ZERO; widest];
+            let [s0, s1, s2] = &mut gc.scratch;
+            let (gz, mut dg_cur, mut dg_next) = (
+                sized(s0, widest * ld),
+                sized(s1, widest * ld),
+                sized(s2, widest * ld),
+            );
+            dg_cur[..n_in * ld].copy_from_slice(&gc.d_g_input[..n_in * ld]);
             // Up the gradient's chain.
-            let mut dz2: Vec<Vec<T>> = Vec::with_capacity(hidden.len());
+            gc.second.resize_with(hidden.len(), Vec::new);
             for (l, info) in hidden.iter().enumerate() {
-                let a_l = &fc.acts[l];
-                let g_l = &gc.g_hidden[l];
-                let mut gz = vec![T::ZERO; info.n_out * ld];
-                times_derivative(act, a_l, g_l, &mut gz, info.n_out, rows, ld);
+                let (a_l, g_l, s_l) = (&fc.acts[l], &gc.g_hidden[l], &gc.slope[l]);
+                for k in 0..info.n_out * ld {
+                    gz[k] = g_l[k] * s_l[k];
+                }
                 let (gw, _) = gc.grad[info.weight_offset..].split_at_mut(info.n_out * info.n_in);
                 linear_backward_params(
                     info.n_in,
                     info.n_out,
                     rows,
                     ld,
-                    &gz,
-                    &dg,
+                    gz,
+                    dg_cur,
                     gw,
-                    &mut scratch_b[..info.n_out],
+                    &mut bias_scratch[..info.n_out],
                 );
-                let mut dgz = vec![T::ZERO; info.n_out * ld];
                 let wl = &w[info.weight_offset..info.bias_offset];
+                let dgz = &mut dg_next[..info.n_out * ld];
                 linear_forward(
                     info.n_in,
                     info.n_out,
@@ -528,31 +601,28 @@ impl<T: Real + Send + Sync> SdfField<T> {
                     wl,
                     (info.n_in, 1),
                     &[],
-                    &dg,
-                    &mut dgz,
+                    dg_cur,
+                    dgz,
                 );
-                let mut second = vec![T::ZERO; info.n_out * ld];
-                let mut next = vec![T::ZERO; info.n_out * ld];
-                for o in 0..info.n_out {
-                    for r in 0..rows {
-                        let k = o * ld + r;
-                        let a = a_l[k];
-                        second[k] = second_derivative_from_output(act, a) * g_l[k] * dgz[k];
-                        next[k] = act.derivative_from_output(a) * dgz[k];
+                let second = sized(&mut gc.second[l], info.n_out * ld);
+                for col in 0..info.n_out {
+                    for k in col * ld..col * ld + rows {
+                        let (a, s) = (a_l[k], s_l[k]);
+                        second[k] = curvature(act, a, s) * g_l[k] * dgz[k];
+                        dgz[k] *= s;
                     }
                 }
-                dz2.push(second);
-                dg = next;
+                std::mem::swap(&mut dg_cur, &mut dg_next);
             }
             for i in 0..top.n_in {
                 let mut s = T::ZERO;
                 for r in 0..rows {
-                    s += dg[i * ld + r];
+                    s += dg_cur[i * ld + r];
                 }
                 gc.grad[top.weight_offset + i] += s;
             }
             // Down the network from D_out, the second-order terms joining.
-            let mut delta = vec![T::ZERO; n_out * ld];
+            let delta = &mut dg_cur[..n_out * ld];
             for r in 0..rows {
                 for o in 0..n_out {
                     delta[o * ld + r] = d_out[(start + r) * n_out + o];
@@ -565,25 +635,27 @@ impl<T: Real + Send + Sync> SdfField<T> {
             {
                 let (gw, gb) = gc.grad[top.weight_offset..top.bias_offset + n_out]
                     .split_at_mut(top.n_in * n_out);
-                linear_backward_params(top.n_in, n_out, rows, ld, &delta, a_top, gw, gb);
+                linear_backward_params(top.n_in, n_out, rows, ld, delta, a_top, gw, gb);
             }
-            let mut da = transposed_product(&top, w, rows, ld, &delta);
+            let d_input = sized(&mut gc.d_input, n_in * ld);
+            let da: &mut [T] = if hidden.is_empty() { d_input } else { dg_next };
+            transposed_product(&top, w, rows, ld, delta, da);
             for (l, info) in hidden.iter().enumerate().rev() {
-                let a_l = &fc.acts[l];
-                let mut dz = vec![T::ZERO; info.n_out * ld];
-                times_derivative(act, a_l, &da, &mut dz, info.n_out, rows, ld);
-                for (d, s) in dz.iter_mut().zip(&dz2[l]) {
-                    *d += *s;
+                let (s_l, second) = (&gc.slope[l], &gc.second[l]);
+                for col in 0..info.n_out {
+                    for k in col * ld..col * ld + rows {
+                        gz[k] = dg_next[k] * s_l[k] + second[k];
+                    }
                 }
                 let a_below: &[T] = if l == 0 { &fc.input } else { &fc.acts[l - 1] };
                 {
                     let (gw, gb) = gc.grad[info.weight_offset..info.bias_offset + info.n_out]
                         .split_at_mut(info.n_in * info.n_out);
-                    linear_backward_params(info.n_in, info.n_out, rows, ld, &dz, a_below, gw, gb);
+                    linear_backward_params(info.n_in, info.n_out, rows, ld, gz, a_below, gw, gb);
                 }
-                da = transposed_product(info, w, rows, ld, &dz);
+                let below: &mut [T] = if l == 0 { &mut gc.d_input } else { dg_next };
+                transposed_product(info, w, rows, ld, gz, below);
             }
-            gc.d_input = da;
         });
         for gc in &ctx.chunks {
             for (g, c) in grads.mlp.iter_mut().zip(&gc.grad) {
@@ -591,13 +663,8 @@ impl<T: Real + Send + Sync> SdfField<T> {
             }
         }
         let blocks: Vec<&[T]> = ctx.chunks.iter().map(|c| c.d_input.as_slice()).collect();
-        field.grid.backward_params_blocks(
-            unit,
-            &blocks,
-            BlockLayout::column_major(crate::CHUNK_ROWS),
-            3,
-            active,
-            &mut grads.grid,
-        );
+        field
+            .grid
+            .backward_params_blocks(unit, &blocks, layout, 3, active, &mut grads.grid);
     }
 }

@@ -160,10 +160,14 @@ fn hash_grid_input_gradient_matches_finite_differences() {
 fn check_input_gradient(interpolation: Interpolation) {
     let mut r = rng(2);
     let grid = HashGrid::<f64>::new(&small_grid(2, interpolation), 5).unwrap();
-    let n = 30;
-    let x: Vec<[f64; 3]> = (0..n)
+    // More than two blocks of the level walk; two points outside the cube
+    // on one axis (clamped there: no gradient along that axis).
+    let n = 70;
+    let mut x: Vec<[f64; 3]> = (0..n)
         .map(|_| [r.random(), r.random(), r.random()])
         .collect();
+    x[3][0] = -0.2;
+    x[40][1] = 1.3;
     let no = grid.n_outputs();
     let d_out = rand_vec(n * no, -1.0, 1.0, &mut r);
     let mut d_x = vec![[0.0; 3]; n];
@@ -179,6 +183,9 @@ fn check_input_gradient(interpolation: Interpolation) {
                 dot(&out, &d_out[p * no..(p + 1) * no])
             };
             let numeric = (eval(h) - eval(-h)) / (2.0 * h);
+            if (p, k) == (3, 0) || (p, k) == (40, 1) {
+                assert_eq!(d_x[p][k], 0.0, "clamped coordinate");
+            }
             assert_close(
                 &format!("{interpolation:?} point {p} axis {k}"),
                 d_x[p][k],
@@ -202,7 +209,8 @@ fn hash_grid_directional_derivative_matches_finite_differences() {
     {
         let mut r = rng(6);
         let grid = HashGrid::<f64>::new(&small_grid(f, interpolation), 9).unwrap();
-        let n = 25;
+        // More than two blocks of the kernels' level walk.
+        let n = 70;
         let no = grid.n_outputs();
         let x = rand_points(n, 0.01, 0.99, &mut r);
         let v = rand_points(n, -1.0, 1.0, &mut r);
@@ -251,7 +259,7 @@ fn hash_grid_directional_table_gradient_matches_finite_differences() {
     for interpolation in INTERPOLATIONS {
         let mut r = rng(7);
         let mut grid = HashGrid::<f64>::new(&small_grid(2, interpolation), 4).unwrap();
-        let n = 30;
+        let n = 70;
         let no = grid.n_outputs();
         let x: Vec<[f64; 3]> = (0..n)
             .map(|_| [r.random(), r.random(), r.random()])
@@ -498,9 +506,19 @@ fn small_sdf_config() -> SdfFieldConfig {
     }
 }
 
+/// The three ways of computing ∇φ in a pass with normals.
+fn normal_methods(step: f64) -> [NormalMethod; 3] {
+    let fd = |scheme| NormalMethod::FiniteDifference { scheme, step };
+    [
+        fd(FdScheme::Tetrahedral),
+        fd(FdScheme::Central),
+        NormalMethod::Analytic,
+    ]
+}
+
 #[test]
-fn fd_normals_gradients_match_finite_differences() {
-    for scheme in [FdScheme::Tetrahedral, FdScheme::Central] {
+fn normals_gradients_match_finite_differences() {
+    for scheme in normal_methods(0.03) {
         let mut sdf = SdfField::<f64>::new(&small_sdf_config(), 8).unwrap();
         let mut r = rng(5);
         let n = 20;
@@ -510,14 +528,13 @@ fn fd_normals_gradients_match_finite_differences() {
         let c: Vec<[f64; 3]> = (0..n)
             .map(|_| [r.random(), r.random(), r.random()])
             .collect();
-        let step = 0.03;
         let mut ctx = NormalContext::new();
-        sdf.forward_with_normals(&x, scheme, step, &mut ctx);
+        sdf.forward_with_normals(&x, scheme, &mut ctx);
         let mut grads = sdf.new_grads();
         sdf.backward_with_normals(&mut ctx, &a, &b, &c, &mut grads);
         let loss = |s: &SdfField<f64>| {
             let mut cx = NormalContext::new();
-            s.forward_with_normals(&x, scheme, step, &mut cx);
+            s.forward_with_normals(&x, scheme, &mut cx);
             let g: f64 = cx
                 .gradient
                 .iter()
@@ -584,17 +601,22 @@ fn fd_normals_approximate_the_analytic_gradient() {
     let mut grads = sdf.new_grads();
     let mut d_x = vec![[0.0; 3]; n];
     sdf.backward(&mut ctx, &d_out, &mut grads, Some(&mut d_x));
-    for scheme in [FdScheme::Tetrahedral, FdScheme::Central] {
+    for scheme in normal_methods(1e-4) {
         let mut nctx = NormalContext::new();
-        sdf.forward_with_normals(&x, scheme, 1e-4, &mut nctx);
+        sdf.forward_with_normals(&x, scheme, &mut nctx);
+        // The analytic gradient is the input gradient itself.
+        let tolerance = match scheme {
+            NormalMethod::Analytic => 1e-10,
+            NormalMethod::FiniteDifference { .. } => 2e-3,
+        };
         for p in 0..n {
             for k in 0..3 {
                 assert_close(
                     &format!("{scheme:?} point {p} axis {k}"),
                     d_x[p][k],
                     nctx.gradient[p][k],
-                    2e-3,
-                    2e-2,
+                    tolerance,
+                    tolerance * 10.0,
                 );
             }
         }
@@ -783,7 +805,18 @@ fn batched_analytic_sdf_gradient_matches_the_reference() {
         let d_grad = rand_points(n, -1.0, 1.0, &mut r);
         let mut reference = GradientContext::new();
         field.forward_with_gradient(&x, &mut reference);
+        // A context used before on a larger batch: its kept buffers must
+        // not leak into the next pass.
         let mut batched = BatchedGradientContext::new();
+        let earlier = rand_points(n + 300, -1.1, 1.1, &mut r);
+        field.forward_with_gradient_batched(&earlier, &mut batched);
+        let d_earlier = (
+            rand_vec((n + 300) * no, -1.0, 1.0, &mut r),
+            rand_points(n + 300, -1.0, 1.0, &mut r),
+        );
+        let mut g_earlier = field.new_grads();
+        let (d_o, d_g) = (&d_earlier.0, &d_earlier.1);
+        field.backward_with_gradient_batched(&mut batched, d_o, d_g, &mut g_earlier);
         field.forward_with_gradient_batched(&x, &mut batched);
         for (a, b) in batched.output().iter().zip(&reference.output) {
             assert_close("outputs", *a, *b, 1e-12, 1e-12);

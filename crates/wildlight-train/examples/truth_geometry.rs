@@ -43,7 +43,8 @@ use rand_pcg::Pcg64;
 use rayon::prelude::*;
 use std::path::Path;
 use wildlight_fields::{
-    Adam, AdamConfig, FdScheme, FieldContext, FieldGrads, NeuralField, NormalContext, SdfField,
+    Adam, AdamConfig, FdScheme, FieldContext, FieldGrads, NeuralField, NormalContext, NormalMethod,
+    SdfField,
 };
 use wildlight_material::{PARAM_COUNT, PARAM_NAMES};
 use wildlight_synth::scenes::BuiltinScene;
@@ -287,7 +288,11 @@ fn report(sdf: &SdfField<f32>, scene: BuiltinScene, pool: &[([f32; 3], f32)]) {
     let cell = sdf.field.cell_size(sdf.field.active_levels - 1);
     for factor in [0.25, 0.5, 1.0, 2.0, 4.0] {
         let mut nctx = NormalContext::new();
-        sdf.forward_with_normals(&surface, FdScheme::Tetrahedral, cell * factor, &mut nctx);
+        let method = NormalMethod::FiniteDifference {
+            scheme: FdScheme::Tetrahedral,
+            step: cell * factor,
+        };
+        sdf.forward_with_normals(&surface, method, &mut nctx);
         let mut degrees: Vec<f64> = surface
             .iter()
             .zip(&nctx.gradient)

@@ -355,6 +355,21 @@ pub struct ModelConfig {
     /// encodes the contracted point u = (x/|x|)(2 − 1/|x|) over [−2, 2]³.
     #[serde(deserialize_with = "background_table")]
     pub background: FieldSize,
+    /// How the SDF's gradient ∇φ (the normals, the eikonal term) is computed.
+    pub sdf_normals: SdfNormals,
+}
+
+/// How the SDF's gradient ∇φ is computed in training and rendering.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SdfNormals {
+    /// Tetrahedral finite differences whose step is the cell of the finest
+    /// active SDF level (it shrinks as levels activate): five evaluations
+    /// of the field per point.
+    FiniteDifferences,
+    /// The analytic gradient through the network and the hash encoding:
+    /// one evaluation and a reverse sweep per point.
+    Analytic,
 }
 
 /// The form of the ambient term a_k (SPEC §2 names its inputs: geometry
@@ -439,6 +454,9 @@ impl Default for ModelConfig {
                 hidden: vec![32],
                 interpolation: Default::default(),
             },
+            // Quality per step as the finite differences' within the seeds'
+            // noise, steps about 1.17× as fast (docs/benchmark-log.md, session 41).
+            sdf_normals: SdfNormals::Analytic,
         }
     }
 }

@@ -13,7 +13,7 @@ use std::path::Path;
 use wildlight_data::exr_io::{write_exr_channels, write_exr_rgb};
 use wildlight_data::writer::indexed_file_name;
 use wildlight_data::{Camera, RgbImage, ViewMaps};
-use wildlight_fields::{Checkpoint, FieldContext};
+use wildlight_fields::{Checkpoint, FieldContext, NormalMethod};
 use wildlight_render::{OccupancyGrid, RefreshMode, Sampler};
 
 /// A trained model ready to render.
@@ -67,14 +67,14 @@ impl TrainedRun {
         })
     }
 
-    /// The finite-difference step of the normals at the end of training.
-    pub fn fd_step(&self) -> f64 {
-        self.model.fd_step()
+    /// How the trained model's normals are computed.
+    pub fn normal_method(&self) -> NormalMethod {
+        self.model.normal_method()
     }
 
     /// Renders `camera` with flash energy `energy` at `scale` × its resolution.
     pub fn render(&mut self, camera: &Camera, energy: [f32; 3], scale: f64) -> ViewMaps {
-        let fd = self.fd_step();
+        let fd = self.normal_method();
         render_view(
             &self.model,
             &self.grid,

@@ -4,10 +4,11 @@
 
 use crate::ambient::ambient_extra_inputs;
 use crate::background::{BACKGROUND_EXTRA, BACKGROUND_OUTPUTS, background_init_bias};
-use crate::config::{AmbientModel, FieldSize, ModelConfig, ROOM_FEATURES};
+use crate::config::{AmbientModel, FieldSize, ModelConfig, ROOM_FEATURES, SdfNormals};
 use crate::float::{Float, finite};
 use wildlight_fields::{
-    Activation, FieldContext, FieldGrads, NeuralField, NeuralFieldConfig, SdfField,
+    Activation, FdScheme, FieldContext, FieldGrads, NeuralField, NeuralFieldConfig, NormalMethod,
+    SdfField,
 };
 use wildlight_material::PARAM_COUNT;
 
@@ -257,11 +258,22 @@ impl<T: Float> Model<T> {
         self.material.active_levels = material_levels.min(self.material.grid.levels().len());
     }
 
-    /// The finite-difference step of the SDF normals: the cell size of the
-    /// finest active SDF level (it shrinks as levels activate).
+    /// The cell size of the finest active SDF level (normalized units; it
+    /// shrinks as levels activate): the step of finite-difference normals.
     pub fn fd_step(&self) -> f64 {
         let f = &self.sdf.field;
         f.cell_size(f.active_levels.max(1) - 1)
+    }
+
+    /// How passes compute ∇φ ([`crate::config::ModelConfig::sdf_normals`]).
+    pub fn normal_method(&self) -> NormalMethod {
+        match self.config.sdf_normals {
+            SdfNormals::FiniteDifferences => NormalMethod::FiniteDifference {
+                scheme: FdScheme::Tetrahedral,
+                step: self.fd_step(),
+            },
+            SdfNormals::Analytic => NormalMethod::Analytic,
+        }
     }
 
     /// Whether every parameter is finite.

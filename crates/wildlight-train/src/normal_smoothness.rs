@@ -32,7 +32,7 @@
 
 use crate::float::{Float, dot3, of, sqrt, to_f64, unit3, unit3_backward};
 use crate::smoothness::pair_points;
-use wildlight_fields::{FdScheme, FieldGrads, NormalContext, SdfField};
+use wildlight_fields::{FieldGrads, NormalContext, NormalMethod, SdfField};
 
 /// The offsets ε of the normal prior's pairs: the material prior's offsets
 /// projected onto the tangent plane of each point's normal, since
@@ -116,7 +116,7 @@ pub struct NormalSmoothness<T> {
 impl<T: Float + Default> NormalSmoothness<T> {
     /// Evaluates λ · L_normal (λ = `weight`) around the points `centres[j]`
     /// and their offsets `offsets[j]`, with normals from the tetrahedral
-    /// finite differences of step `fd_step`, and ADDS its gradient with
+    /// `normals`, and ADDS its gradient with
     /// respect to the SDF field's parameters into `grads`. Returns the mean
     /// of ρ, without λ.
     pub fn forward_backward(
@@ -124,7 +124,7 @@ impl<T: Float + Default> NormalSmoothness<T> {
         sdf: &SdfField<T>,
         centres: &[[T; 3]],
         offsets: &[[T; 3]],
-        fd_step: f64,
+        normals: NormalMethod,
         weight: T,
         grads: &mut FieldGrads<T>,
     ) -> f64 {
@@ -140,7 +140,7 @@ impl<T: Float + Default> NormalSmoothness<T> {
                 .map(|(c, e)| [c[0] - e[0], c[1] - e[1], c[2] - e[2]]),
         );
         let n_points = self.points.len();
-        sdf.forward_with_normals(&self.points, FdScheme::Tetrahedral, fd_step, &mut self.ctx);
+        sdf.forward_with_normals(&self.points, normals, &mut self.ctx);
         let scale = weight / of(m as f64);
         let mut sum = 0.0f64;
         self.d_gradient.clear();

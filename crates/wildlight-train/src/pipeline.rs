@@ -18,7 +18,7 @@ use crate::ambient::{AmbientInputGrads, AmbientInputs, AmbientPass};
 use crate::background::BackgroundPass;
 use crate::float::{Float, finite, norm3, of, safe_norm3, to_f64, unit3, unit3_backward};
 use crate::model::{Model, ModelGrads};
-use wildlight_fields::{FdScheme, FieldContext, NormalContext};
+use wildlight_fields::{FieldContext, NormalContext, NormalMethod};
 use wildlight_material::PARAM_COUNT;
 use wildlight_render::{
     BackgroundSettings, CoarseSamples, FlashCache, FlashInputs, NeusInputs, NeusSettings,
@@ -81,8 +81,8 @@ pub struct RayInputs<'a, T = f32> {
 /// Per-pass settings that change during training.
 #[derive(Clone, Copy, Debug)]
 pub struct PassSettings {
-    /// Finite-difference step of the SDF normals.
-    pub fd_step: f64,
+    /// How the SDF normals are computed.
+    pub normals: NormalMethod,
     /// NeuS cos-annealing ratio.
     pub cos_anneal_ratio: f64,
     /// Seed of the sampler's stratified jitter (`None`: strata centres).
@@ -101,10 +101,10 @@ pub struct PassSettings {
 
 impl PassSettings {
     /// The settings of a pass that renders a trained model: the normals'
-    /// step `fd_step`, no cos-annealing, strata centres, no backward.
-    pub fn rendering(fd_step: f64) -> Self {
+    /// `normals`, no cos-annealing, strata centres, no backward.
+    pub fn rendering(normals: NormalMethod) -> Self {
         PassSettings {
-            fd_step,
+            normals,
             cos_anneal_ratio: 1.0,
             jitter_seed: None,
             for_backward: false,
@@ -250,12 +250,9 @@ impl<T: Float + Default> Pipeline<T> {
         self.points.clear();
         self.points.extend_from_slice(&self.samples.positions);
         self.points.extend_from_slice(eikonal_points);
-        model.sdf.forward_with_normals(
-            &self.points,
-            FdScheme::Tetrahedral,
-            settings.fd_step,
-            &mut self.normal_ctx,
-        );
+        model
+            .sdf
+            .forward_with_normals(&self.points, settings.normals, &mut self.normal_ctx);
         let ctx = &self.normal_ctx;
 
         // NeuS weights (SPEC §2).

@@ -11,6 +11,7 @@
 use crate::model::Model;
 use crate::pipeline::{PassSettings, Pipeline, RayInputs};
 use wildlight_data::{Camera, ViewMaps};
+use wildlight_fields::NormalMethod;
 use wildlight_material::PARAM_COUNT;
 use wildlight_render::{OccupancyGrid, composite};
 
@@ -26,7 +27,7 @@ pub fn render_view(
     camera: &Camera,
     energy: [f32; 3],
     scale: f64,
-    fd_step: f64,
+    normals: NormalMethod,
 ) -> ViewMaps {
     let width = ((camera.width as f64 * scale).round() as u32).max(1);
     let height = ((camera.height as f64 * scale).round() as u32).max(1);
@@ -36,7 +37,7 @@ pub fn render_view(
     );
     let n = (width * height) as usize;
     let mut maps = ViewMaps::with_capacity(width, height);
-    let settings = PassSettings::rendering(fd_step);
+    let settings = PassSettings::rendering(normals);
     let (mut origins, mut dirs) = (Vec::new(), Vec::new());
     for start in (0..n).step_by(RENDER_CHUNK) {
         let end = (start + RENDER_CHUNK).min(n);

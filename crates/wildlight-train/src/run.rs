@@ -586,7 +586,7 @@ fn write_step_preview(
     out: &Path,
     step: u64,
 ) -> anyhow::Result<()> {
-    let fd = trainer.fd_step();
+    let fd = trainer.normal_method();
     let energy = view.camera.light_energy.map(|e| e as f32);
     let scale = trainer.config.output.preview_scale;
     let maps = render_view(

@@ -87,7 +87,7 @@ impl TrainedRun {
         search: &BackgroundSupportSearch,
     ) -> Option<BackgroundSupport> {
         self.model.background.as_ref()?;
-        let settings = PassSettings::rendering(self.fd_step());
+        let settings = PassSettings::rendering(self.normal_method());
         let trained_settings = self.pipeline.background_settings;
         self.pipeline.background_settings.samples = search.samples.max(1);
         let step = (cameras.len() as f64 / search.max_cameras.max(1) as f64).max(1.0);

@@ -21,7 +21,7 @@ use std::path::Path;
 use std::time::Instant;
 use wildlight_fields::{
     Adam, AdamConfig, Checkpoint, CheckpointWriter, Checkpointable, Decay, FieldContext,
-    LrSchedule, NeuralField,
+    LrSchedule, NeuralField, NormalMethod,
 };
 use wildlight_render::{OccupancyGrid, OccupancySnapshot, RefreshMode, Sampler, cos_anneal_ratio};
 
@@ -435,10 +435,9 @@ impl Trainer {
         self.model.set_active_levels(levels, levels);
     }
 
-    /// The finite-difference step of the normals: the cell size of the
-    /// finest active SDF level (shrinks as levels activate).
-    pub fn fd_step(&self) -> f64 {
-        self.model.fd_step()
+    /// How the model's normals are computed now.
+    pub fn normal_method(&self) -> NormalMethod {
+        self.model.normal_method()
     }
 
     /// Re-measures the occupancy grid from the current SDF.
@@ -489,7 +488,7 @@ impl Trainer {
             })
             .collect();
         let settings = PassSettings {
-            fd_step: self.fd_step(),
+            normals: self.normal_method(),
             cos_anneal_ratio: cos_anneal_ratio(step, self.config.optim.cos_anneal_steps),
             jitter_seed: Some(mix(self.config.seed, step, 2)),
             for_backward: true,
@@ -546,7 +545,7 @@ impl Trainer {
         );
         let t_priors = Instant::now();
         let (smoothness, normal_smoothness, binary_metallic) =
-            self.surface_priors(&mut rng, settings.fd_step, step);
+            self.surface_priors(&mut rng, settings.normals, step);
         let t_hull = Instant::now();
         let visual_hull = match &mut self.hull_prior {
             Some(prior) => prior.forward_backward(
@@ -620,7 +619,12 @@ impl Trainer {
     /// off, or not on at this step). The offsets are drawn only when a
     /// smoothness prior is on, so a run with both off draws the same random
     /// numbers as before they existed.
-    fn surface_priors(&mut self, rng: &mut Pcg64, fd_step: f64, step: u64) -> (f64, f64, f64) {
+    fn surface_priors(
+        &mut self,
+        rng: &mut Pcg64,
+        normal_method: NormalMethod,
+        step: u64,
+    ) -> (f64, f64, f64) {
         let loss = &self.config.loss;
         let factor = self.smoothness_factor();
         let material_on = loss.material_smoothness * factor > 0.0;
@@ -663,7 +667,7 @@ impl Trainer {
                 &self.model.sdf,
                 &centres,
                 &normal_smoothness::pair_offsets(&offsets, &normals),
-                fd_step,
+                normal_method,
                 normal_weight,
                 &mut self.grads.sdf,
             )

@@ -6,7 +6,7 @@
 
 mod common;
 
-use wildlight_fields::{FdScheme, NormalContext};
+use wildlight_fields::{FdScheme, NormalContext, NormalMethod};
 use wildlight_train::model::Model;
 use wildlight_train::normal_smoothness::{
     HUBER_ETA, NormalSmoothness, pair_offsets, pseudo_huber, second_difference,
@@ -33,15 +33,27 @@ const OFFSETS: [[f64; 3]; 4] = [
     [0.03, 0.05, -0.04],
     [0.06, -0.02, -0.03],
 ];
-const STEP: f64 = 0.02;
 const WEIGHT: f64 = 0.7;
+/// Both ways of computing the normals: finite differences of step 0.02
+/// and the analytic gradient.
+const METHODS: [NormalMethod; 2] = [
+    NormalMethod::FiniteDifference {
+        scheme: FdScheme::Tetrahedral,
+        step: 0.02,
+    },
+    NormalMethod::Analytic,
+];
 
 /// λ · L_normal and (when asked) its gradient.
-fn loss(model: &Model<f64>, grads: Option<&mut wildlight_fields::FieldGrads<f64>>) -> f64 {
+fn loss(
+    model: &Model<f64>,
+    method: NormalMethod,
+    grads: Option<&mut wildlight_fields::FieldGrads<f64>>,
+) -> f64 {
     let mut term = NormalSmoothness::<f64>::default();
     let mut scratch = model.sdf.new_grads();
     let g = grads.unwrap_or(&mut scratch);
-    WEIGHT * term.forward_backward(&model.sdf, &CENTRES, &OFFSETS, STEP, WEIGHT, g)
+    WEIGHT * term.forward_backward(&model.sdf, &CENTRES, &OFFSETS, method, WEIGHT, g)
 }
 
 fn unit(g: [f64; 3]) -> [f64; 3] {
@@ -50,11 +62,9 @@ fn unit(g: [f64; 3]) -> [f64; 3] {
 }
 
 /// The unit normal of the model's SDF at `x`.
-fn normal_at(model: &Model<f64>, x: [f64; 3]) -> [f64; 3] {
+fn normal_at(model: &Model<f64>, method: NormalMethod, x: [f64; 3]) -> [f64; 3] {
     let mut ctx = NormalContext::new();
-    model
-        .sdf
-        .forward_with_normals(&[x], FdScheme::Tetrahedral, STEP, &mut ctx);
+    model.sdf.forward_with_normals(&[x], method, &mut ctx);
     unit(ctx.gradient[0])
 }
 
@@ -64,10 +74,15 @@ fn pseudo_huber_by_hand(d: [f64; 3]) -> f64 {
 }
 
 /// Δ by hand, from the normals at x − ε, x and x + ε.
-fn difference_by_hand(model: &Model<f64>, c: [f64; 3], e: [f64; 3]) -> [f64; 3] {
-    let n0 = normal_at(model, c);
-    let n1 = normal_at(model, [0, 1, 2].map(|a| c[a] + e[a]));
-    let n2 = normal_at(model, [0, 1, 2].map(|a| c[a] - e[a]));
+fn difference_by_hand(
+    model: &Model<f64>,
+    method: NormalMethod,
+    c: [f64; 3],
+    e: [f64; 3],
+) -> [f64; 3] {
+    let n0 = normal_at(model, method, c);
+    let n1 = normal_at(model, method, [0, 1, 2].map(|a| c[a] + e[a]));
+    let n2 = normal_at(model, method, [0, 1, 2].map(|a| c[a] - e[a]));
     let s = [0, 1, 2].map(|a| n1[a] + n2[a] - 2.0 * n0[a]);
     let sn: f64 = (0..3).map(|a| s[a] * n0[a]).sum();
     [0, 1, 2].map(|a| s[a] - sn * n0[a])
@@ -76,25 +91,31 @@ fn difference_by_hand(model: &Model<f64>, c: [f64; 3], e: [f64; 3]) -> [f64; 3] 
 #[test]
 fn normal_smoothness_is_the_mean_pseudo_huber_difference_of_the_normals() {
     let model = tiny_sdf_model();
-    let by_hand = CENTRES
-        .iter()
-        .zip(&OFFSETS)
-        .map(|(c, e)| pseudo_huber_by_hand(difference_by_hand(&model, *c, *e)))
-        .sum::<f64>()
-        / CENTRES.len() as f64;
-    let value = loss(&model, None) / WEIGHT;
-    assert!(
-        value > 1e-2,
-        "the normals must turn across the points: {value}"
-    );
-    assert!((value - by_hand).abs() < 1e-12, "{value} vs {by_hand}");
+    for method in METHODS {
+        let by_hand = CENTRES
+            .iter()
+            .zip(&OFFSETS)
+            .map(|(c, e)| pseudo_huber_by_hand(difference_by_hand(&model, method, *c, *e)))
+            .sum::<f64>()
+            / CENTRES.len() as f64;
+        let value = loss(&model, method, None) / WEIGHT;
+        assert!(
+            value > 1e-2,
+            "{method:?}: the normals must turn across the points: {value}"
+        );
+        assert!(
+            (value - by_hand).abs() < 1e-12,
+            "{method:?}: {value} vs {by_hand}"
+        );
 
-    // No offset, no penalty and no gradient.
-    let mut term = NormalSmoothness::<f64>::default();
-    let mut g = model.sdf.new_grads();
-    let zero = term.forward_backward(&model.sdf, &CENTRES, &[[0.0; 3]; 4], STEP, 1.0, &mut g);
-    assert_eq!(zero, 0.0);
-    assert!(g.grid.iter().chain(&g.mlp).all(|v| *v == 0.0));
+        // No offset, no penalty and no gradient.
+        let mut term = NormalSmoothness::<f64>::default();
+        let mut g = model.sdf.new_grads();
+        let still = [[0.0; 3]; 4];
+        let zero = term.forward_backward(&model.sdf, &CENTRES, &still, method, 1.0, &mut g);
+        assert_eq!(zero, 0.0);
+        assert!(g.grid.iter().chain(&g.mlp).all(|v| *v == 0.0));
+    }
 }
 
 /// Along circles of any radius the tangential second difference vanishes
@@ -152,20 +173,25 @@ fn pseudo_huber_is_quadratic_below_eta_and_linear_above() {
 
 #[test]
 fn normal_smoothness_gradient_matches_finite_differences() {
-    let mut model = tiny_sdf_model();
-    let mut grads = model.sdf.new_grads();
-    loss(&model, Some(&mut grads));
-    // The normals are central differences of step 0.02, so the loss's
-    // rounding (~1e-16 of the SDF's values) reaches ~1e-10 in its own
-    // central differences: an absolute floor of 1e-5 (tolerance 1e-9).
-    let probed = common::check_field_gradient_with_floor(
-        &mut model,
-        |m| &mut m.sdf.field,
-        &grads,
-        |m| loss(m, None),
-        1e-5,
-    );
-    assert!(probed >= 10, "only {probed} parameters had a gradient");
+    for method in METHODS {
+        let mut model = tiny_sdf_model();
+        let mut grads = model.sdf.new_grads();
+        loss(&model, method, Some(&mut grads));
+        // With finite-difference normals of step 0.02 the loss's rounding
+        // (~1e-16 of the SDF's values) reaches ~1e-10 in its own central
+        // differences: an absolute floor of 1e-5 (tolerance 1e-9).
+        let probed = common::check_field_gradient_with_floor(
+            &mut model,
+            |m| &mut m.sdf.field,
+            &grads,
+            |m| loss(m, method, None),
+            1e-5,
+        );
+        assert!(
+            probed >= 10,
+            "{method:?}: only {probed} parameters had a gradient"
+        );
+    }
 }
 
 /// SecondDifference::backward, the prior's ∂ρ(Δ)/∂n for each of the three

@@ -1,12 +1,12 @@
 //! Finite-difference check, in f64, of the whole differentiable chain:
-//! samples along rays → SDF field with finite-difference normals → NeuS
-//! weights → material and ambient fields, flash term → composited colour and
-//! Σw, plus the eikonal term → a loss; with a background (a run without
+//! samples along rays → SDF field with finite-difference (or analytic)
+//! normals → NeuS weights → material and ambient fields, flash term →
+//! composited colour and Σw, plus the eikonal term → a loss; with a background (a run without
 //! masks), its samples beyond the unit sphere → background field → its
 //! volume rendering with the flash term → C += (1 − Σw) B. Every parameter
 //! group of a tiny model is probed.
 
-use wildlight_fields::Interpolation;
+use wildlight_fields::{FdScheme, Interpolation, NormalMethod};
 use wildlight_render::BackgroundSettings;
 use wildlight_train::config::{AmbientModel, FieldSize, ModelConfig};
 use wildlight_train::model::Model;
@@ -80,7 +80,10 @@ fn setup() -> Setup {
         d_colour: vec![[0.7, -0.4, 0.2], [0.3, 0.5, -0.9], [-0.6, 0.8, 0.4]],
         d_acc: vec![0.5, -0.3, 0.8],
         settings: PassSettings {
-            fd_step: 0.02,
+            normals: NormalMethod::FiniteDifference {
+                scheme: FdScheme::Tetrahedral,
+                step: 0.02,
+            },
             cos_anneal_ratio: 0.6,
             jitter_seed: None,
             for_backward: true,
@@ -191,6 +194,16 @@ fn bg_mlp(m: &mut Model<f64>) -> &mut Vec<f64> {
 #[test]
 fn whole_pipeline_matches_finite_differences() {
     check_whole_pipeline(&tiny_config());
+}
+
+/// With the analytic SDF gradient in place of the finite differences: its
+/// second-order terms reach every SDF parameter through the normals and
+/// the eikonal term.
+#[test]
+fn whole_pipeline_with_analytic_normals_matches_finite_differences() {
+    let mut s = setup();
+    s.settings.normals = NormalMethod::Analytic;
+    check_model(&prepared_model(&tiny_config()), &s, false);
 }
 
 /// With the background of a run without masks, its samples jittered from

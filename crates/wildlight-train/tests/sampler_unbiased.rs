@@ -66,7 +66,7 @@ fn fast_sampler_matches_dense_sampling_through_the_fields() {
         energy: &energy,
     };
     let settings = PassSettings {
-        fd_step: model.fd_step(),
+        normals: model.normal_method(),
         cos_anneal_ratio: 1.0,
         jitter_seed: None,
         for_backward: false,
