@@ -578,6 +578,44 @@ impl<T: Real> BlockCells<T> {
     }
 }
 
+/// Runs `$obj.$method::<F>(args…)` for the table's feature count `F` (1, 2,
+/// 4 or 8: [`HashGrid::layout`] allows no other).
+macro_rules! by_features {
+    ($f:expr, $obj:ident . $method:ident ( $($arg:expr),* )) => {
+        match $f {
+            1 => $obj.$method::<1>($($arg),*),
+            2 => $obj.$method::<2>($($arg),*),
+            4 => $obj.$method::<4>($($arg),*),
+            _ => $obj.$method::<8>($($arg),*),
+        }
+    };
+}
+
+/// Defines `$name::<F>(&self, args)`, which runs the level kernel
+/// `$generic::<F>` compiled with AVX2 (`$avx2`) where the CPU has it: the
+/// same arithmetic, no FMA contraction, so results equal the generic build's.
+macro_rules! with_avx2 {
+    ($name:ident, $avx2:ident, $generic:ident, $args:ty) => {
+        fn $name<const F: usize>(&self, args: $args) {
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx2")
+                && std::arch::is_x86_feature_detected!("fma")
+            {
+                // SAFETY: the CPU supports the enabled features (checked just above).
+                unsafe { self.$avx2::<F>(args) };
+                return;
+            }
+            self.$generic::<F>(args)
+        }
+
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2,fma")]
+        unsafe fn $avx2<const F: usize>(&self, args: $args) {
+            self.$generic::<F>(args)
+        }
+    };
+}
+
 /// The arguments of a forward kernel of one level: the level, the points,
 /// their weighting, the output blocks, their layout and the first column.
 type EncodeArgs<'a, 'b, 'c, T> = (
@@ -590,7 +628,8 @@ type EncodeArgs<'a, 'b, 'c, T> = (
 );
 
 /// The arguments of a backward kernel of one level: the level, the points,
-/// their weighting, the upstream blocks, their layout and the first column.
+/// their weighting, the upstream blocks, their layout, the first column and
+/// the level's table gradient.
 type ScatterArgs<'a, 'b, T> = (
     usize,
     &'a [[T; 3]],
@@ -598,6 +637,7 @@ type ScatterArgs<'a, 'b, T> = (
     &'a [&'b [T]],
     BlockLayout,
     usize,
+    &'a mut [T],
 );
 
 /// The arguments of an input-gradient kernel of one level: the level, the
@@ -879,32 +919,15 @@ impl<T: Real> HashGrid<T> {
             return;
         }
         let args = (level, x, weighting, out_blocks, layout, c0);
-        match f {
-            1 => self.encode_level_f::<1>(args),
-            2 => self.encode_level_f::<2>(args),
-            4 => self.encode_level_f::<4>(args),
-            _ => self.encode_level_f::<8>(args),
-        }
+        by_features!(f, self.encode_level_f(args))
     }
 
-    fn encode_level_f<const F: usize>(&self, args: EncodeArgs<'_, '_, '_, T>) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        {
-            // SAFETY: the CPU supports the enabled features (checked just above).
-            unsafe { self.encode_level_avx2::<F>(args) };
-            return;
-        }
-        self.encode_level_generic::<F>(args)
-    }
-
-    /// The kernel compiled with AVX2 (same arithmetic, no FMA contraction, so
-    /// results equal the generic build's).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn encode_level_avx2<const F: usize>(&self, args: EncodeArgs<'_, '_, '_, T>) {
-        self.encode_level_generic::<F>(args)
-    }
+    with_avx2!(
+        encode_level_f,
+        encode_level_avx2,
+        encode_level_generic,
+        EncodeArgs<'_, '_, '_, T>
+    );
 
     /// The forward kernel of one level (sizes checked by the caller).
     #[inline(always)]
@@ -1041,13 +1064,8 @@ impl<T: Real> HashGrid<T> {
             .into_par_iter()
             .filter(|(l, _)| *l < active_levels)
             .for_each(|(l, g)| {
-                let args = (l, x, weighting, d_out_blocks, layout, col);
-                match f {
-                    1 => self.backward_level::<1>(args, g),
-                    2 => self.backward_level::<2>(args, g),
-                    4 => self.backward_level::<4>(args, g),
-                    _ => self.backward_level::<8>(args, g),
-                }
+                let args = (l, x, weighting, d_out_blocks, layout, col, g);
+                by_features!(f, self.backward_level(args))
             });
     }
 
@@ -1067,31 +1085,17 @@ impl<T: Real> HashGrid<T> {
         }
     }
 
-    fn backward_level<const F: usize>(&self, args: ScatterArgs<'_, '_, T>, g: &mut [T]) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        {
-            // SAFETY: the CPU supports the enabled features (checked just above).
-            unsafe { self.backward_level_avx2::<F>(args, g) };
-            return;
-        }
-        self.backward_level_generic::<F>(args, g)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn backward_level_avx2<const F: usize>(
-        &self,
-        args: ScatterArgs<'_, '_, T>,
-        g: &mut [T],
-    ) {
-        self.backward_level_generic::<F>(args, g)
-    }
+    with_avx2!(
+        backward_level,
+        backward_level_avx2,
+        backward_level_generic,
+        ScatterArgs<'_, '_, T>
+    );
 
     /// The table-gradient kernel of one level (sizes checked by the caller).
     #[inline(always)]
-    fn backward_level_generic<const F: usize>(&self, args: ScatterArgs<'_, '_, T>, g: &mut [T]) {
-        let (l, x, weighting, d_out_blocks, layout, col) = args;
+    fn backward_level_generic<const F: usize>(&self, args: ScatterArgs<'_, '_, T>) {
+        let (l, x, weighting, d_out_blocks, layout, col, g) = args;
         let level = &self.levels[l];
         let c0 = col + l * F;
         walk_level::<T, F>(
@@ -1152,13 +1156,8 @@ impl<T: Real> HashGrid<T> {
                 if l >= active_levels {
                     continue;
                 }
-                let args = (l, xs, Weighting::Value, blocks, layout, col);
-                match f {
-                    1 => self.backward_level::<1>(args, head),
-                    2 => self.backward_level::<2>(args, head),
-                    4 => self.backward_level::<4>(args, head),
-                    _ => self.backward_level::<8>(args, head),
-                }
+                let args = (l, xs, Weighting::Value, blocks, layout, col, head);
+                by_features!(f, self.backward_level(args))
             }
         });
         const RED: usize = 1 << 16;
@@ -1204,31 +1203,16 @@ impl<T: Real> HashGrid<T> {
         let f = self.config.n_features;
         for l in 0..active_levels.min(self.levels.len()) {
             let args = (l, x, d_out, layout, col + l * f, &mut *d_x);
-            match f {
-                1 => self.input_level::<1>(args),
-                2 => self.input_level::<2>(args),
-                4 => self.input_level::<4>(args),
-                _ => self.input_level::<8>(args),
-            }
+            by_features!(f, self.input_level(args))
         }
     }
 
-    fn input_level<const F: usize>(&self, args: InputArgs<'_, T>) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        {
-            // SAFETY: the CPU supports the enabled features (checked just above).
-            unsafe { self.input_level_avx2::<F>(args) };
-            return;
-        }
-        self.input_level_generic::<F>(args)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn input_level_avx2<const F: usize>(&self, args: InputArgs<'_, T>) {
-        self.input_level_generic::<F>(args)
-    }
+    with_avx2!(
+        input_level,
+        input_level_avx2,
+        input_level_generic,
+        InputArgs<'_, T>
+    );
 
     /// The input-gradient kernel of one level (sizes checked by the caller).
     #[inline(always)]

@@ -12,9 +12,9 @@
 //!
 //! L_normal = λ · (1/m) Σ_j ρ(‖Δ_j‖),
 //!
-//! with n = ∇φ/|∇φ| the normal the renderer shades with (the SDF's
-//! finite-difference gradient at the same step), ρ(d) = sqrt(d² + η²) − η
-//! a pseudo-Huber penalty (quadratic below η, linear above, so that a
+//! with n = ∇φ/|∇φ| the normal the renderer shades with (∇φ as the pass
+//! computes it, [`wildlight_fields::NormalMethod`]), ρ(d) = sqrt(d² + η²)
+//! − η a pseudo-Huber penalty (quadratic below η, linear above, so that a
 //! crease costs no more than its length while speckle is pushed out) and Δ
 //! the second difference Δ = P (n(x + ε) + n(x − ε) − 2 n(x)), P = I −
 //! n(x) n(x)ᵀ the projection onto the tangent plane at x. For ε in that

@@ -3,7 +3,8 @@
 //!
 //! ```text
 //! rays → occupancy-grid sampler (coarse φ, refinement) → sample points
-//!      → SDF field with finite-difference normals → NeuS weights w_k
+//!      → SDF field with its normals (analytic ∇φ, or finite differences)
+//!      → NeuS weights w_k
 //!      → material field Θ_k, ambient field a_k, flash term f_k
 //!      → C = Σ w_k (a_k + f_k), Σ w_k
 //!      [→ C += (1 − Σ w_k) B: the background of a run without masks,
@@ -246,7 +247,7 @@ impl<T: Float + Default> Pipeline<T> {
         let nf = model.config.geometry_features;
         let offsets = &self.samples.offsets;
 
-        // SDF, features and FD gradients at the samples and the eikonal points.
+        // SDF, features and ∇φ at the samples and the eikonal points.
         self.points.clear();
         self.points.extend_from_slice(&self.samples.positions);
         self.points.extend_from_slice(eikonal_points);
@@ -534,7 +535,7 @@ impl<T: Float + Default> Pipeline<T> {
             }
         }
 
-        // SDF field through the finite-difference normals.
+        // SDF field through its normals.
         model.sdf.backward_with_normals(
             &mut self.normal_ctx,
             &self.d_sdf,
