@@ -367,8 +367,12 @@ pub enum SdfNormals {
     /// active SDF level (it shrinks as levels activate): five evaluations
     /// of the field per point.
     FiniteDifferences,
-    /// The analytic gradient through the network and the hash encoding:
-    /// one evaluation and a reverse sweep per point.
+    /// The analytic gradient through the network and the hash encoding (one
+    /// evaluation and a reverse sweep per point) once every SDF level is
+    /// active; until then (coarse to fine) the finite differences, whose
+    /// step, as wide as the finest active cell, smooths the early shape: the
+    /// analytic gradient from the first step left the Mitsuba torus's mesh
+    /// at 300 steps twice as far from the truth (0.0107 against 0.0056).
     Analytic,
 }
 

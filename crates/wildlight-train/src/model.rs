@@ -265,14 +265,17 @@ impl<T: Float> Model<T> {
         f.cell_size(f.active_levels.max(1) - 1)
     }
 
-    /// How passes compute ∇φ ([`crate::config::ModelConfig::sdf_normals`]).
+    /// How passes compute ∇φ now ([`crate::config::ModelConfig::sdf_normals`]):
+    /// with [`SdfNormals::Analytic`], analytically once every SDF level is
+    /// active, by finite differences of the shrinking step before.
     pub fn normal_method(&self) -> NormalMethod {
+        let all_levels = self.sdf.field.active_levels >= self.config.sdf.levels;
         match self.config.sdf_normals {
-            SdfNormals::FiniteDifferences => NormalMethod::FiniteDifference {
+            SdfNormals::Analytic if all_levels => NormalMethod::Analytic,
+            _ => NormalMethod::FiniteDifference {
                 scheme: FdScheme::Tetrahedral,
                 step: self.fd_step(),
             },
-            SdfNormals::Analytic => NormalMethod::Analytic,
         }
     }
 
