@@ -493,6 +493,19 @@ impl<T: Real> BlockCells<T> {
         // The weight of a corner's bit `bit` on axis d, and its derivative.
         let pick = |w0: T, w1: T, bit: usize| if bit == 1 { w1 } else { w0 };
         let slope = |d: T, bit: usize| if bit == 1 { d } else { -d };
+        // Corner c's (wx' wy wz, wx wy' wz, wx wy wz') at point i, the axes'
+        // slopes of w1 given per axis.
+        let partials = |c: usize, i: usize, d: &[[T; BLOCK]; 3]| {
+            let (a, b, e) = (c & 1, (c >> 1) & 1, (c >> 2) & 1);
+            let wx = pick(w0[0][i], w1[0][i], a);
+            let wy = pick(w0[1][i], w1[1][i], b);
+            let wz = pick(w0[2][i], w1[2][i], e);
+            [
+                slope(d[0][i], a) * wy * wz,
+                wx * slope(d[1][i], b) * wz,
+                wx * wy * slope(d[2][i], e),
+            ]
+        };
         match weighting {
             Weighting::Value => {
                 // weight of corner (a, b, e) = (wx · wy) · wz, in that order.
@@ -517,27 +530,19 @@ impl<T: Real> BlockCells<T> {
                     }
                 }
                 for c in 0..8 {
-                    let (a, b, e) = (c & 1, (c >> 1) & 1, (c >> 2) & 1);
                     for i in 0..BLOCK {
-                        let wx = pick(w0[0][i], w1[0][i], a);
-                        let wy = pick(w0[1][i], w1[1][i], b);
-                        let wz = pick(w0[2][i], w1[2][i], e);
-                        self.weight[c][i] = slope(dv[0][i], a) * wy * wz
-                            + wx * slope(dv[1][i], b) * wz
-                            + wx * wy * slope(dv[2][i], e);
+                        let [gx, gy, gz] = partials(c, i, &dv);
+                        self.weight[c][i] = gx + gy + gz;
                     }
                 }
             }
             Weighting::Axes => {
                 for c in 0..8 {
-                    let (a, b, e) = (c & 1, (c >> 1) & 1, (c >> 2) & 1);
                     for i in 0..BLOCK {
-                        let wx = pick(w0[0][i], w1[0][i], a);
-                        let wy = pick(w0[1][i], w1[1][i], b);
-                        let wz = pick(w0[2][i], w1[2][i], e);
-                        self.axis_weight[0][c][i] = slope(d1[0][i], a) * wy * wz;
-                        self.axis_weight[1][c][i] = wx * slope(d1[1][i], b) * wz;
-                        self.axis_weight[2][c][i] = wx * wy * slope(d1[2][i], e);
+                        let g = partials(c, i, &d1);
+                        for (k, gk) in g.into_iter().enumerate() {
+                            self.axis_weight[k][c][i] = gk;
+                        }
                     }
                 }
             }
@@ -816,13 +821,7 @@ impl<T: Real> HashGrid<T> {
         active_levels: usize,
         out: &mut [T],
     ) {
-        let n_out = self.n_outputs();
-        assert_eq!(
-            out.len(),
-            x.len() * n_out,
-            "encode_directional: output length"
-        );
-        let layout = BlockLayout::row_major(x.len().max(1), n_out);
+        let layout = self.one_row_major_block(x.len(), out.len(), "encode_directional: output");
         self.encode_directional_blocks(x, v, &mut [out], layout, 0, active_levels)
     }
 
@@ -1024,13 +1023,8 @@ impl<T: Real> HashGrid<T> {
         active_levels: usize,
         grad: &mut [T],
     ) {
-        let n_out = self.n_outputs();
-        assert_eq!(
-            d_out.len(),
-            x.len() * n_out,
-            "backward_params_directional: d_out"
-        );
-        let layout = BlockLayout::row_major(x.len().max(1), n_out);
+        let layout =
+            self.one_row_major_block(x.len(), d_out.len(), "backward_params_directional: d_out");
         self.backward_params_directional_blocks(x, v, &[d_out], layout, 0, active_levels, grad)
     }
 
@@ -1067,6 +1061,15 @@ impl<T: Real> HashGrid<T> {
                 let args = (l, x, weighting, d_out_blocks, layout, col, g);
                 by_features!(f, self.backward_level(args))
             });
+    }
+
+    /// The layout of one row-major block of `n` rows of the whole encoding,
+    /// after checking that the buffer holding it (`len` values) has exactly
+    /// that size (`what` names the buffer in the panic message).
+    fn one_row_major_block(&self, n: usize, len: usize, what: &str) -> BlockLayout {
+        let n_out = self.n_outputs();
+        assert_eq!(len, n * n_out, "{what} length");
+        BlockLayout::row_major(n.max(1), n_out)
     }
 
     /// Checks that `blocks` hold the encoding columns of `n` rows laid out as `layout`.
